@@ -1,0 +1,41 @@
+# deskarm — `make run` and `make test` do all the set-up on a fresh machine.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+
+.PHONY: setup run test bench firmware-test clean
+
+setup: $(STAMP)
+
+# Re-install when pyproject.toml changes; uv is ~3x faster than pip when it is available.
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@$(PY) -m pip install -q --upgrade pip uv >/dev/null 2>&1 || true
+	@if $(VENV)/bin/uv --version >/dev/null 2>&1; then \
+		VIRTUAL_ENV=$(VENV) $(VENV)/bin/uv pip install -q -e '.[test]'; \
+	else \
+		$(PY) -m pip install -q -e '.[test]'; \
+	fi
+	@touch $(STAMP)
+
+run: $(STAMP)
+	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ] || [ "$$(uname)" = Darwin ]; then \
+		$(VENV)/bin/deskarm; \
+	else \
+		echo "deskarm: no display found (DISPLAY/WAYLAND_DISPLAY unset) — running the headless demo instead"; \
+		$(VENV)/bin/deskarm --headless --scenario cups --duration 10; \
+	fi
+
+test: $(STAMP) firmware-test
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
+
+firmware-test:
+	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware test; fi
+
+bench: $(STAMP)
+	QT_QPA_PLATFORM=offscreen $(PY) -m bench
+
+clean:
+	rm -rf $(VENV) build *.egg-info
+	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware clean; fi
