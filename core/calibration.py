@@ -138,7 +138,7 @@ def load_calibration(
         raise CalibrationError(f"{path}: calibration file not found — {fix}")
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
+    except (cv2.error, SystemError) as exc:  # OpenCV 5 raises SystemError on parse errors
         first = str(exc).strip().splitlines()[-1] if str(exc).strip() else "unreadable"
         raise CalibrationError(f"{path}: not a readable OpenCV YAML/XML file ({first}) — {fix}") from None
     try:

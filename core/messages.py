@@ -81,6 +81,7 @@ class PerceptionResult:
     full_frame_search: bool  # True when this frame ran a full-frame detection
     frame: Optional[StereoFrame] = None  # the frame, for display
     disparity: Optional[np.ndarray] = None  # float32 px, rectified left, when requested
+    ball_left_px: Optional[tuple[float, float]] = None  # cups game: red ball in the left image
 
     def marker(self, marker_id: int) -> Optional[MarkerObservation]:
         for m in self.markers:

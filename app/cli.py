@@ -1,0 +1,87 @@
+"""``deskarm`` command line: the window, the headless runner and the screenshot renderer.
+
+Qt is imported late (only when a window is needed) so ``deskarm --help`` and the headless
+runner start fast. Errors a user can hit are printed as one clear line, exit code 2.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from core.bridge import BRIDGE_CHOICES
+from core.cameras import CAMERA_CHOICES
+from core.session import SCENARIOS, SessionOptions
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="deskarm",
+        description="See objects on the desk in 3D with two webcams and have a servo arm reach them. "
+        "With nothing plugged in it runs on a simulated desk.",
+    )
+    p.add_argument("--camera", default="auto", help=f"camera source: {CAMERA_CHOICES} (default: auto)")
+    p.add_argument("--bridge", default="sim://", help=f"motor bridge: {BRIDGE_CHOICES} (default: sim://)")
+    p.add_argument("--robot", default="desk_rrr", help="robot profile name or TOML path (default: desk_rrr)")
+    p.add_argument("--scenario", default="static", help=f"simulated desk scenario: {', '.join(SCENARIOS)}")
+    p.add_argument("--calibration", default=None, help="stereo calibration YAML (default: the last saved one)")
+    p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default: 30)")
+    p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
+    p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
+    p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
+    p.add_argument("--json", action="store_true", help="headless: end with one JSON object of metrics")
+    p.add_argument("--screenshot", metavar="PATH", help="render the window offscreen and save a PNG")
+    p.add_argument("--after", type=float, default=2.0, help="screenshot: seconds of the scenario first (default: 2)")
+    p.add_argument("--size", default="1280x800", help="window size WxH (default: 1280x800)")
+    return p
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise ValueError(f"--size {text!r} is not WIDTHxHEIGHT, e.g. 800x480") from None
+    if not (320 <= w <= 7680 and 240 <= h <= 4320):
+        raise ValueError(f"--size {text!r} is outside 320x240…7680x4320")
+    return w, h
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    options = SessionOptions(
+        camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
+        fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
+    )
+    try:
+        options.validate()
+        size = parse_size(args.size)
+        if not (1.0 <= args.fps <= 240.0):
+            raise ValueError(f"--fps {args.fps:g} is outside 1…240")
+        if args.duration <= 0:
+            raise ValueError(f"--duration {args.duration:g} must be positive")
+    except ValueError as exc:  # ProfileError and SettingsError are ValueErrors too
+        print(f"deskarm: {exc}", file=sys.stderr)
+        return 2
+    try:
+        if args.headless:
+            from app.headless import run_headless
+
+            return run_headless(options, args.duration, args.json)
+        if args.screenshot:
+            os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+            from app.gui import take_screenshot
+
+            return take_screenshot(options, args.screenshot, args.after, size)
+        from app.gui import run_window
+
+        return run_window(options, size)
+    except KeyboardInterrupt:
+        return 130
+    except (OSError, RuntimeError, ValueError) as exc:
+        print(f"deskarm: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

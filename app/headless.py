@@ -1,0 +1,241 @@
+"""The headless runner: the window's pipeline without a window, with metrics.
+
+It drives the same core objects the workers drive (``DeskSession``): camera frames at the
+camera rate, perception on each frame, targeting, and the control step at a fixed 50 Hz that
+writes to the motor bridge. With ``fast`` it runs on a simulated clock as fast as the machine
+allows. No Qt is imported here.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from core.messages import TargetMode
+from core.session import DeskSession, SessionOptions
+
+
+def percentile(values, q: float) -> Optional[float]:
+    """The q-th percentile of ``values`` (None when empty)."""
+    if not len(values):
+        return None
+    return float(np.percentile(np.asarray(values, dtype=float), q))
+
+
+@dataclass
+class RunMetrics:
+    """What the headless runner measures; ``summary()`` is the JSON object it prints."""
+
+    scenario: str
+    frames: int = 0
+    perception_ms: list = field(default_factory=list)
+    latency_ms: list = field(default_factory=list)
+    error_3d_mm: list = field(default_factory=list)
+    reach_error_mm: list = field(default_factory=list)
+    visible_pairs: int = 0  # (frame, marker) pairs visible in both views by ground truth
+    seen_pairs: int = 0  # of those, how many perception found
+    commands_sent: int = 0
+    limit_violations: int = 0
+    unreachable_commands: int = 0
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+    full_searches: int = 0
+
+    def summary(self) -> dict:
+        def r(v, nd=3):
+            return None if v is None else round(v, nd)
+
+        return {
+            "scenario": self.scenario,
+            "frames": self.frames,
+            "fps": r(self.frames / self.wall_s if self.wall_s > 0 else 0.0, 2),
+            "perception_ms_p50": r(percentile(self.perception_ms, 50)),
+            "perception_ms_p95": r(percentile(self.perception_ms, 95)),
+            "latency_ms_p50": r(percentile(self.latency_ms, 50)),
+            "latency_ms_p95": r(percentile(self.latency_ms, 95)),
+            "error_3d_mm_p50": r(percentile(self.error_3d_mm, 50)),
+            "error_3d_mm_p95": r(percentile(self.error_3d_mm, 95)),
+            "markers_seen_ratio": r(self.seen_pairs / self.visible_pairs if self.visible_pairs else 0.0),
+            "commands_sent": self.commands_sent,
+            "limit_violations": self.limit_violations,
+            "reach_error_mm_p50": r(percentile(self.reach_error_mm, 50)),
+            "unreachable_commands": self.unreachable_commands,
+            "full_frame_searches": self.full_searches,
+            "duration_s": r(self.sim_s, 2),
+        }
+
+
+def servo_deg_outside_limits(servo_deg, profile) -> bool:
+    """An independent check of what was written (never trusts the clamp it checks)."""
+    for d, j in zip(servo_deg, profile.joints):
+        if not (0 <= d <= 180) or d < math.floor(j.servo_min_deg + 1e-9) or d > math.ceil(j.servo_max_deg - 1e-9):
+            return True
+    return False
+
+
+class HeadlessRunner:
+    """Runs a DeskSession for ``duration`` seconds and collects RunMetrics."""
+
+    def __init__(self, session: DeskSession, duration_s: float, status: Callable[[str], None] | None = None):
+        self.s = session
+        self.duration_s = float(duration_s)
+        self.status = status or (lambda line: None)
+        self.metrics = RunMetrics(scenario=session.options.scenario)
+        self._goal = None
+        self._cmd_source_wall: dict[int, float] = {}
+        self._last_target = None
+        self._target_since = 0.0
+
+    def run(self) -> RunMetrics:
+        s, m = self.s, self.metrics
+        clock = s.clock
+        s.bridge.connect()
+        state = s.bridge.joint_state()
+        if state is not None and hasattr(s.camera, "set_arm_points"):
+            s.camera.set_arm_points(s.kinematics.chain_points(state.q))
+        t0 = clock.now()
+        wall0 = time.perf_counter()
+        next_control = t0
+        next_status = t0 + 1.0
+        period = s.controller.period_s
+        pending_latency: list[tuple[float, float]] = []  # (frame t, processing wall s)
+        try:
+            while clock.now() - t0 < self.duration_s:
+                # control ticks that fall before the next camera frame run first (time order)
+                next_frame = getattr(s.camera, "_next", None)
+                if next_frame is not None and next_control < next_frame:
+                    clock.wait_until(next_control)
+                    self._control_tick(pending_latency)
+                    next_control += period
+                    continue
+                frame = s.camera.read()
+                if frame is None:
+                    continue
+                w0 = time.perf_counter()
+                result = s.perception.process(frame)
+                if s.targeter.mode is TargetMode.CUPS:
+                    from dataclasses import replace
+
+                    result = replace(result, ball_left_px=s.ball_finder.find(frame.left))
+                self._goal = s.targeter.update(result)
+                processing = time.perf_counter() - w0
+                pending_latency.append((frame.t, processing if clock.simulated else 0.0))
+                self._score_frame(frame, result)
+                if next_frame is None:  # real cameras: catch up on control ticks now
+                    while next_control <= clock.now():
+                        self._control_tick(pending_latency)
+                        next_control += period
+                if clock.now() >= next_status:
+                    next_status += 1.0
+                    self.status(self._status_line(clock.now() - t0))
+        finally:
+            m.wall_s = time.perf_counter() - wall0
+            m.sim_s = clock.now() - t0
+            s.close()
+        return m
+
+    def _control_tick(self, pending_latency) -> None:
+        s, m = self.s, self.metrics
+        state = s.bridge.joint_state()
+        q_now = state.q if state is not None else s.controller.last.q if s.controller.last else None
+        if q_now is None:
+            return
+        w0 = time.perf_counter()
+        cmd = s.controller.step(self._goal, q_now, s.clock.now())
+        if cmd is None:
+            return
+        sent = s.bridge.send(cmd)
+        ctrl_wall = time.perf_counter() - w0
+        m.commands_sent += 1
+        if servo_deg_outside_limits(sent, s.profile):
+            m.limit_violations += 1
+        if not cmd.reachable:
+            m.unreachable_commands += 1
+        if pending_latency:
+            # the first command after a frame carries that frame's goal
+            for frame_t, processing in pending_latency:
+                m.latency_ms.append((s.clock.now() - frame_t + processing + (ctrl_wall if s.clock.simulated else 0.0)) * 1e3)
+            pending_latency.clear()
+        state = s.bridge.joint_state()
+        if hasattr(s.camera, "set_arm_points") and state is not None:
+            s.camera.set_arm_points(s.kinematics.chain_points(state.q))
+        self._score_reach(cmd, state)
+
+    def _score_frame(self, frame, result) -> None:
+        m = self.metrics
+        m.frames += 1
+        m.perception_ms.append(result.timings_ms["total"])
+        m.full_searches += int(result.full_frame_search)
+        if frame.truth is None:
+            return
+        for obj in frame.truth.objects:
+            if obj.marker_id < 0 or not (obj.visible_left and obj.visible_right):
+                continue
+            m.visible_pairs += 1
+            obs = result.marker(obj.marker_id)
+            if obs is not None and obs.found:
+                m.seen_pairs += 1
+                m.error_3d_mm.append(float(np.linalg.norm(np.subtract(obs.base_p_centre, obj.base_p_centre))) * 1e3)
+
+    def _score_reach(self, cmd, state) -> None:
+        """Tool tip vs aimed point, once the arm has settled on a goal that stopped moving."""
+        s, m = self.s, self.metrics
+        goal = self._goal
+        if goal is None or not goal.valid or goal.mode not in (TargetMode.FOLLOW, TargetMode.CUPS):
+            return
+        if not cmd.reachable or state is None or not state.measured:
+            return
+        target = np.asarray(goal.base_p_target)
+        now = s.clock.now()
+        if self._last_target is None or np.linalg.norm(target - self._last_target) > 0.002:
+            self._last_target, self._target_since = target, now
+            return
+        settled = getattr(s.bridge, "is_settled", lambda: False)()
+        if settled and now - self._target_since > 0.5:
+            tip = np.asarray(s.kinematics.fk(state.q))
+            m.reach_error_mm.append(float(np.linalg.norm(tip - np.asarray(cmd.base_p_target))) * 1e3)
+
+    def _status_line(self, elapsed: float) -> str:
+        m = self.metrics
+        p = percentile(m.perception_ms[-60:], 50)
+        e = percentile(m.error_3d_mm[-120:], 50)
+        seen = m.seen_pairs / m.visible_pairs if m.visible_pairs else 0.0
+        goal = self._goal
+        note = f" goal: {goal.note}" if goal is not None and goal.note else ""
+        return (
+            f"t={elapsed:5.1f}s frames={m.frames} perception={p or 0:.2f}ms "
+            f"3d-error={e or 0:.2f}mm seen={seen:.0%} commands={m.commands_sent} "
+            f"limit-violations={m.limit_violations}{note}"
+        )
+
+
+def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None) -> int:
+    """Entry point of ``deskarm --headless``; returns the process exit code."""
+    out = out or sys.stdout
+    session = DeskSession.create(options)
+    for banner in session.banners:
+        print(f"deskarm: {banner}", file=out)
+    mode = "as fast as possible (simulated clock)" if options.simulated_clock else f"paced at {options.fps:g} fps"
+    print(
+        f"deskarm headless: camera {session.camera.name}, bridge {session.bridge.url}, "
+        f"robot {session.profile.name}, scenario {options.scenario}, {duration_s:g} s {mode}",
+        file=out,
+    )
+    runner = HeadlessRunner(session, duration_s, status=lambda line: print(line, file=out, flush=True))
+    metrics = runner.run()
+    summary = metrics.summary()
+    if as_json:
+        print(json.dumps(summary), file=out, flush=True)
+    else:
+        print(
+            f"done: {summary['frames']} frames, {summary['fps']} fps, perception p50 "
+            f"{summary['perception_ms_p50']} ms, 3D error p50 {summary['error_3d_mm_p50']} mm, "
+            f"limit violations {summary['limit_violations']}",
+            file=out,
+        )
+    return 0

@@ -1,0 +1,284 @@
+"""The three QThread workers: perception, kinematics/control (50 Hz) and the motor bridge.
+
+Each is a thin loop around Qt-free core objects from a ``DeskSession``. Workers talk to the GUI
+only through signals carrying frozen core messages; between workers they pass only the latest
+value through a ``Latest`` slot (no unbounded queues). Every worker stops and joins on ``stop()``.
+
+Signals (all emitted from the worker's own thread, received queued in the GUI thread):
+- PerceptionWorker.sigResult(PerceptionResult) — one per camera frame
+- PerceptionWorker.sigError(str) — camera stopped delivering frames
+- ControlWorker.sigCommand(JointCommand, Goal) — one per control tick that produced a command
+- BridgeWorker.sigState(JointState) — after each write (and at 10 Hz while idle)
+- BridgeWorker.sigStatus(BridgeStatus) — connection state, about 2 Hz
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import replace
+from typing import Generic, Optional, TypeVar
+
+from PySide6 import QtCore
+
+from core.bridge import BridgeError
+from core.messages import TargetMode
+from core.session import DeskSession
+from core.settings import SgbmParams
+from core.stereo import DisparityComputer
+
+T = TypeVar("T")
+
+
+class Latest(Generic[T]):
+    """A one-value mailbox: ``put`` replaces, ``take`` returns the newest (waits until one arrives)."""
+
+    def __init__(self) -> None:
+        self._value: Optional[T] = None
+        self._version = 0
+        self._cond = threading.Condition()
+
+    def put(self, value: T) -> None:
+        with self._cond:
+            self._value = value
+            self._version += 1
+            self._cond.notify_all()
+
+    def peek(self) -> Optional[T]:
+        with self._cond:
+            return self._value
+
+    def wait_newer(self, version: int, timeout: float) -> tuple[Optional[T], int]:
+        """The value once its version exceeds ``version`` (or the current one after ``timeout``)."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._version > version, timeout=timeout)
+            return self._value, self._version
+
+    def wake(self) -> None:
+        with self._cond:
+            self._version += 0
+            self._cond.notify_all()
+
+
+class _LoopThread(QtCore.QThread):
+    """A QThread running ``loop_once`` until ``stop()``."""
+
+    def __init__(self, name: str, parent=None):
+        super().__init__(parent)
+        self.setObjectName(name)
+        self._running = threading.Event()
+
+    def start(self, *args) -> None:  # noqa: D102
+        self._running.set()
+        super().start(*args)
+
+    @property
+    def running(self) -> bool:
+        return self._running.is_set()
+
+    def stop(self) -> None:
+        """Ask the loop to end, wake it, and join the thread."""
+        self._running.clear()
+        self.wake()
+        if not self.wait(5000):
+            # never leave a running QThread behind (it aborts the interpreter at exit)
+            self.terminate()
+            self.wait()
+
+    def wake(self) -> None:
+        """Interrupt a blocking wait in the loop."""
+
+    def run(self) -> None:  # noqa: D102 (QThread override)
+        while self._running.is_set():
+            self.loop_once()
+
+    def loop_once(self) -> None:
+        raise NotImplementedError
+
+
+class PerceptionWorker(_LoopThread):
+    """Camera -> perception (-> disparity while shown, -> ball finder in the cups game)."""
+
+    sigResult = QtCore.Signal(object)
+    sigError = QtCore.Signal(str)
+
+    def __init__(self, session: DeskSession, results: Latest, parent=None):
+        super().__init__("perception", parent)
+        self.session = session
+        self.results = results
+        self.disparity = DisparityComputer(session.calibration)
+        self._want_disparity = threading.Event()
+        self._settings_lock = threading.Lock()
+        self._pending_settings = None
+        self._error_reported = False
+
+    def set_disparity_enabled(self, enabled: bool) -> None:
+        if enabled:
+            self._want_disparity.set()
+        else:
+            self._want_disparity.clear()
+
+    def set_sgbm_params(self, params: SgbmParams) -> None:
+        self.disparity.set_params(params)
+
+    def set_camera_settings(self, settings) -> None:
+        with self._settings_lock:
+            self._pending_settings = settings
+
+    def wake(self) -> None:
+        self.session.camera.interrupt()
+
+    def loop_once(self) -> None:
+        s = self.session
+        with self._settings_lock:
+            settings, self._pending_settings = self._pending_settings, None
+        if settings is not None:
+            s.camera.set_settings(settings)
+        frame = s.camera.read()
+        if frame is None:
+            if not s.camera.is_connected and self.running and not self._error_reported:
+                self._error_reported = True
+                self.sigError.emit(s.camera.status_message or f"{s.camera.name}: no frames")
+            return
+        self._error_reported = False
+        result = s.perception.process(frame)
+        extra = {}
+        if self._want_disparity.is_set():
+            t0 = time.perf_counter()
+            extra["disparity"] = self.disparity.compute(frame.left, frame.right)
+            extra["timings_ms"] = dict(result.timings_ms, disparity=(time.perf_counter() - t0) * 1e3)
+        if s.targeter.mode is TargetMode.CUPS:
+            extra["ball_left_px"] = s.ball_finder.find(frame.left)
+        if extra:
+            result = replace(result, **extra)
+        self.results.put(result)
+        self.sigResult.emit(result)
+
+
+class ControlWorker(_LoopThread):
+    """Targeting + IK + safety at a fixed 50 Hz; hands commands to the bridge worker."""
+
+    sigCommand = QtCore.Signal(object, object)
+
+    def __init__(self, session: DeskSession, results: Latest, states: Latest, commands: Latest, parent=None):
+        super().__init__("control", parent)
+        self.session = session
+        self.results, self.states, self.commands = results, states, commands
+        self._next = None
+
+    def wake(self) -> None:
+        self.session.clock.interrupt()
+
+    def loop_once(self) -> None:
+        s = self.session
+        now = s.clock.now()
+        if self._next is None:
+            self._next = now
+        if not s.clock.wait_until(self._next) or not self.running:
+            return
+        self._next = max(self._next + s.controller.period_s, s.clock.now() - s.controller.period_s)
+        result = self.results.peek()
+        goal = s.targeter.update(result)
+        state = self.states.peek()
+        if state is not None:
+            q_now = state.q
+        elif s.controller.last is not None:
+            q_now = s.controller.last.q
+        else:
+            q_now = s.profile.q_home
+        cmd = s.controller.step(goal, q_now, s.clock.now())
+        if cmd is not None:
+            self.commands.put(cmd)
+            self.sigCommand.emit(cmd, goal)
+
+
+class BridgeWorker(_LoopThread):
+    """Writes the newest command to the motor bridge and reports the joint state.
+
+    Reconnects with a growing delay when the device disappears; the state is a visible status.
+    """
+
+    sigState = QtCore.Signal(object)
+    sigStatus = QtCore.Signal(object)
+
+    def __init__(self, session: DeskSession, commands: Latest, states: Latest, parent=None):
+        super().__init__("bridge", parent)
+        self.session = session
+        self.commands, self.states = commands, states
+        self._version = 0
+        self._last_status_t = 0.0
+        self._retry_at = 0.0
+        self._backoff = 0.5
+
+    def wake(self) -> None:
+        self.commands.wake()
+
+    def _ensure_connected(self) -> bool:
+        b = self.session.bridge
+        if b.is_connected:
+            return True
+        now = time.monotonic()
+        if now < self._retry_at:
+            return False
+        try:
+            b.connect()
+            self._backoff = 0.5
+            return True
+        except BridgeError as exc:
+            b.message = f"{exc} — retrying in {self._backoff:.0f} s" if self._backoff >= 1 else str(exc)
+            self._retry_at = now + self._backoff
+            self._backoff = min(self._backoff * 2, 5.0)
+            return False
+
+    def loop_once(self) -> None:
+        s = self.session
+        cmd, self._version = self.commands.wait_newer(self._version, timeout=0.1)
+        if not self.running:
+            return
+        if self._ensure_connected():
+            if cmd is not None:
+                try:
+                    s.bridge.send(cmd)
+                except BridgeError as exc:
+                    s.bridge.message = str(exc)
+            state = s.bridge.joint_state()
+            if state is not None:
+                self.states.put(state)
+                if hasattr(s.camera, "set_arm_points"):
+                    s.camera.set_arm_points(s.kinematics.chain_points(state.q))
+                self.sigState.emit(state)
+        now = time.monotonic()
+        if now - self._last_status_t > 0.5:
+            self._last_status_t = now
+            self.sigStatus.emit(s.bridge.status())
+
+
+class WorkerSet:
+    """The three workers of a session, started and stopped together."""
+
+    def __init__(self, session: DeskSession, parent=None):
+        self.session = session
+        self.results: Latest = Latest()
+        self.states: Latest = Latest()
+        self.commands: Latest = Latest()
+        self.perception = PerceptionWorker(session, self.results, parent)
+        self.control = ControlWorker(session, self.results, self.states, self.commands, parent)
+        self.bridge = BridgeWorker(session, self.commands, self.states, parent)
+        self.started = False
+
+    def start(self) -> None:
+        try:
+            self.session.bridge.connect()
+        except BridgeError as exc:
+            self.session.bridge.message = str(exc)  # the bridge worker retries; the GUI shows it
+        for w in (self.bridge, self.control, self.perception):
+            w.start()
+        self.started = True
+
+    def stop(self) -> None:
+        """Stop in data-flow order and join every thread; safe to call twice."""
+        if not self.started:
+            return
+        self.started = False
+        for w in (self.perception, self.control, self.bridge):
+            w.stop()
+        self.session.close()

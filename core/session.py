@@ -1,0 +1,137 @@
+"""Build the whole pipeline (camera, calibration, perception, targeting, control, bridge) from options.
+
+The window's workers and the headless runner both start from a ``DeskSession``, so what the
+headless metrics measure is what the window shows.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from core.bridge import MotorBridge, open_bridge, parse_bridge_url
+from core.calibration import CalibrationError, StereoCalibration, load_calibration, save_calibration
+from core.cameras import CameraSource, open_camera, parse_camera_spec
+from core.clock import SimClock, WallClock
+from core.control import ArmController
+from core.messages import TargetMode
+from core.perception import StereoMarkerPerception
+from core.robot_profile import build_kinematics, load_profile
+from core.targeting import BallFinder, Targeter
+
+SCENARIOS = ("static", "cups", "wander")
+
+
+def user_dir(kind: str) -> Path:
+    """Per-user config or cache folder (``DESKARM_HOME`` overrides, e.g. in tests)."""
+    root = os.environ.get("DESKARM_HOME")
+    if root:
+        return Path(root) / kind
+    import platformdirs
+
+    if kind == "config":
+        return Path(platformdirs.user_config_dir("deskarm"))
+    return Path(platformdirs.user_cache_dir("deskarm"))
+
+
+@dataclass
+class SessionOptions:
+    """What the command line chooses."""
+
+    camera: str = "auto"  # auto | sim | IDX,IDX
+    bridge: str = "sim://"  # sim:// | serial port | loop://
+    robot: str = "desk_rrr"  # profile name or path
+    scenario: str = "static"  # static | cups | wander (simulated desk)
+    fps: float = 30.0  # camera frame rate
+    simulated_clock: bool = False  # headless --fast: run on a simulated clock
+    marker_ids: tuple[int, ...] = (23, 50)
+    calibration: Optional[str] = None  # path; default: the last saved one for real cameras
+
+    def validate(self) -> None:
+        """Raise ValueError naming the bad option and the valid values."""
+        parse_camera_spec(self.camera)
+        parse_bridge_url(self.bridge)
+        if self.scenario not in SCENARIOS:
+            raise ValueError(f"unknown --scenario value {self.scenario!r}; valid: {', '.join(SCENARIOS)}")
+        load_profile(self.robot)  # raises ProfileError naming the valid profiles
+
+
+@dataclass
+class DeskSession:
+    """All the core objects of one run, wired the same way for the window and the headless runner."""
+
+    options: SessionOptions
+    clock: object
+    profile: object
+    kinematics: object
+    camera: CameraSource
+    calibration: StereoCalibration
+    perception: StereoMarkerPerception
+    targeter: Targeter
+    controller: ArmController
+    bridge: MotorBridge
+    banners: list[str] = field(default_factory=list)
+    ball_finder: BallFinder = field(default_factory=BallFinder)
+
+    @classmethod
+    def create(cls, options: SessionOptions) -> "DeskSession":
+        options.validate()
+        clock = SimClock() if options.simulated_clock else WallClock()
+        profile = load_profile(options.robot)
+        kinematics = build_kinematics(profile)
+        camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps)
+        banners = [banner] if banner else []
+        calibration, note = load_session_calibration(camera, options.calibration)
+        if note:
+            banners.append(note)
+        base_T_camera = camera.base_T_camera()
+        if base_T_camera is None:
+            from core.sim_rig import SimRig
+
+            base_T_camera = SimRig().base_T_camera  # nominal mount until a hand-eye step exists
+        perception = StereoMarkerPerception(calibration, base_T_camera, marker_ids=options.marker_ids)
+        mode = TargetMode.CUPS if options.scenario == "cups" else TargetMode.FOLLOW
+        targeter = Targeter(clock, mode=mode, follow_id=options.marker_ids[0], cup_ids=options.marker_ids[:2])
+        controller = ArmController(profile, kinematics)
+        bridge = open_bridge(options.bridge, profile, clock=clock)
+        return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
+                   controller, bridge, banners)
+
+    @property
+    def is_simulated_camera(self) -> bool:
+        return self.camera.kind == "sim"
+
+    def close(self) -> None:
+        try:
+            self.camera.disconnect()
+        finally:
+            self.bridge.disconnect()
+
+
+def load_session_calibration(camera: CameraSource, path: Optional[str]) -> tuple[StereoCalibration, str]:
+    """The calibration the session uses, and a banner line when it is not a real one.
+
+    The simulated rig's exact calibration is written to the cache folder and read back through
+    the same loader real calibrations use.
+    """
+    own = camera.calibration()
+    if own is not None and path is None:
+        cache = user_dir("cache") / "sim_rig_calibration.yaml"
+        save_calibration(cache, own)
+        return load_calibration(cache, expected_size=own.image_size), ""
+    candidate = Path(path) if path else user_dir("config") / "calibration.yaml"
+    try:
+        return load_calibration(candidate), ""
+    except CalibrationError as exc:
+        from core.sim_rig import SimRig
+
+        nominal = SimRig().calibration()
+        why = str(exc) if path else "no stereo calibration yet — run `deskarm calibrate`"
+        return nominal, f"UNCALIBRATED: nominal parameters, 3D positions approximate ({why})"
+
+
+def chain_points(session: DeskSession, q) -> np.ndarray:
+    return np.asarray(session.kinematics.chain_points(q))

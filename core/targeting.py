@@ -1,0 +1,163 @@
+"""Targeting: turn what perception saw (or the user's sliders) into a Goal for the arm.
+
+Modes (``TargetMode``): manual point, follow a marker id, the Lissajous generator, and the
+cups-and-ball game of the original paper (point at the cup hiding the ball).
+Pointing at an object means a point ``standoff_m`` back towards the arm's base and ``hover_m``
+above it, so the arm shows the object without covering its marker from the cameras.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Optional
+
+import cv2
+import numpy as np
+
+from core.messages import Goal, PerceptionResult, SequenceCounter, TargetMode, as_point
+from core.settings import LissajousParams, check_range
+
+
+@dataclass(frozen=True)
+class PointingOffset:
+    """Where the tool goes relative to an object it points at."""
+
+    standoff_m: float = 0.05  # back towards the base, horizontally, 0 … 0.15 m
+    hover_m: float = 0.04  # above the marker, 0 … 0.2 m
+
+    def __post_init__(self) -> None:
+        check_range("pointing", "standoff_m", self.standoff_m, 0.0, 0.15)
+        check_range("pointing", "hover_m", self.hover_m, 0.0, 0.2)
+
+    def apply(self, base_p_object) -> tuple[float, float, float]:
+        """The pointing position for an object at ``base_p_object`` (robot_base, m)."""
+        x, y, z = (float(v) for v in base_p_object)
+        rho = math.hypot(x, y)
+        if rho > 1e-9:
+            back = min(self.standoff_m, rho) / rho
+            x, y = x - x * back, y - y * back
+        return (x, y, z + self.hover_m)
+
+
+class BallFinder:
+    """Finds the red ball of the cups game in a BGR image (HSV threshold on a downscaled copy)."""
+
+    def __init__(self, scale: float = 0.25, min_area_px: float = 3.0):
+        self.scale = scale
+        self.min_area_px = min_area_px
+
+    def find(self, bgr: np.ndarray) -> Optional[tuple[float, float]]:
+        """Pixel centre (x, y) of the largest red blob in full-image coordinates, or None."""
+        small = cv2.resize(bgr, None, fx=self.scale, fy=self.scale, interpolation=cv2.INTER_AREA)
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        # red wraps around hue 0: two bands
+        mask = cv2.inRange(hsv, (0, 120, 70), (8, 255, 255)) | cv2.inRange(hsv, (172, 120, 70), (180, 255, 255))
+        n, _, stats, centroids = cv2.connectedComponentsWithStats(mask)
+        if n <= 1:
+            return None
+        k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+        if stats[k, cv2.CC_STAT_AREA] < self.min_area_px:
+            return None
+        cx, cy = centroids[k]
+        return ((cx + 0.5) / self.scale - 0.5, (cy + 0.5) / self.scale - 0.5)
+
+
+class Targeter:
+    """Keeps the targeting state the GUI edits and makes a Goal from each perception result.
+
+    Thread-safe: setters may be called from the GUI thread while ``update`` runs in a worker.
+    """
+
+    def __init__(self, clock, mode: TargetMode = TargetMode.MANUAL,
+                 manual_target=(0.0, 0.15, 0.10), follow_id: int = 23,
+                 lissajous: LissajousParams | None = None,
+                 pointing: PointingOffset | None = None, cup_ids=(23, 50)):
+        self.clock = clock
+        self._lock = threading.Lock()
+        self.mode = TargetMode(mode)
+        self.manual_target = as_point(manual_target)
+        self.follow_id = int(follow_id)
+        self.lissajous = lissajous or LissajousParams()
+        self.lissajous_running = False
+        self._lissajous_t0 = 0.0
+        self._lissajous_paused_at = 0.0
+        self.pointing = pointing or PointingOffset()
+        self.cup_ids = tuple(cup_ids)
+        self.ball_cup_id: Optional[int] = None  # the cup believed to hide the ball
+        self._seq = SequenceCounter()
+
+    # --- setters (GUI thread) ---------------------------------------------------------------
+    def set_mode(self, mode) -> None:
+        with self._lock:
+            self.mode = TargetMode(mode)
+
+    def set_manual_target(self, base_p) -> None:
+        with self._lock:
+            self.manual_target = as_point(base_p)
+
+    def set_follow_id(self, marker_id: int) -> None:
+        with self._lock:
+            self.follow_id = int(marker_id)
+
+    def set_lissajous(self, params: LissajousParams) -> None:
+        with self._lock:
+            self.lissajous = params
+
+    def set_lissajous_running(self, running: bool) -> None:
+        with self._lock:
+            now = self.clock.now()
+            if running and not self.lissajous_running:
+                self._lissajous_t0 = now - self._lissajous_paused_at
+            elif not running and self.lissajous_running:
+                self._lissajous_paused_at = now - self._lissajous_t0
+            self.lissajous_running = bool(running)
+
+    def lissajous_time(self) -> float:
+        if self.lissajous_running:
+            return self.clock.now() - self._lissajous_t0
+        return self._lissajous_paused_at
+
+    # --- per perception result (worker thread) ----------------------------------------------
+    def update(self, result: Optional[PerceptionResult]) -> Goal:
+        """The goal for the latest perception result (None when there is no camera result)."""
+        with self._lock:
+            mode = self.mode
+            t = self.clock.now()
+            source_t = result.t if result is not None else None
+            if mode is TargetMode.MANUAL:
+                return Goal(self._seq.next(), t, self.manual_target, mode, source_t)
+            if mode is TargetMode.LISSAJOUS:
+                p = self.lissajous.point(self.lissajous_time())
+                return Goal(self._seq.next(), t, as_point(p), mode, source_t)
+            if mode is TargetMode.FOLLOW:
+                return self._goal_for_marker(self.follow_id, result, mode, t, source_t)
+            # cups game
+            self._update_ball_cup(result)
+            if self.ball_cup_id is None:
+                return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                            note="watching for the ball")
+            return self._goal_for_marker(self.ball_cup_id, result, mode, t, source_t)
+
+    def _goal_for_marker(self, marker_id, result, mode, t, source_t) -> Goal:
+        obs = result.marker(marker_id) if result is not None else None
+        if obs is None or not obs.found or obs.base_p_centre is None:
+            return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                        note=f"marker {marker_id} lost — holding")
+        return Goal(self._seq.next(), t, self.pointing.apply(obs.base_p_centre), mode, source_t,
+                    note=f"marker {marker_id}")
+
+    def _update_ball_cup(self, result: Optional[PerceptionResult]) -> None:
+        """When the ball is visible, the cup nearest to it (in the left image) hides it next."""
+        if result is None or result.ball_left_px is None:
+            return
+        bx, by = result.ball_left_px
+        best, best_d = None, float("inf")
+        for m in result.markers:
+            if m.marker_id in self.cup_ids and m.found and m.left_corners:
+                cx, cy = np.mean(np.asarray(m.left_corners), axis=0)
+                d = math.hypot(cx - bx, cy - by)
+                if d < best_d:
+                    best, best_d = m.marker_id, d
+        if best is not None:
+            self.ball_cup_id = best
