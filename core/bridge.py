@@ -110,10 +110,8 @@ class SimServoArm(MotorBridge):
         super().__init__(url, profile, clock)
         self.speed_deg_s = float(speed_deg_s)
         self.period_s = 1.0 / float(rate_hz)
-        home = getattr(profile, "home_servo_deg", None) or tuple(
-            round((j.servo_min_deg + j.servo_max_deg) / 2) for j in profile.joints
-        )
-        self.position_deg = [float(d) for d in home]
+        home = profile.to_servo_deg(profile.q_home)
+        self.position_deg = [float(round(d)) for d in home]
         self.target_deg = list(self.position_deg)
         self._connected = False
         self._last_tick: Optional[float] = None

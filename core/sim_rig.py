@@ -44,8 +44,12 @@ class SimRigConfig:
     height: int = 480  # px
     focal_px: float = 430.0  # px, both axes
     baseline_m: float = 0.06  # distance between the optical centres
-    position: tuple[float, float, float] = (0.0, -0.10, 0.50)  # midpoint of the rig, robot_base (m)
-    look_at: tuple[float, float, float] = (0.0, 0.12, 0.0)  # point both cameras aim at (m)
+    # The rig faces the arm from across the desk: the arm reaches towards the cameras, so it
+    # points at objects without covering their markers (seen from behind the arm, the elbow
+    # hides what the tool points at).
+    position: tuple[float, float, float] = (0.0, 0.42, 0.45)  # midpoint of the rig, robot_base (m)
+    look_at: tuple[float, float, float] = (0.0, 0.10, 0.0)  # point both cameras aim at (m)
+    right_hint: tuple[float, float, float] = (-1.0, 0.0, 0.0)  # image x axis, roughly (robot_base)
     right_rotation_rad: tuple[float, float, float] = (0.004, -0.012, 0.006)  # right vs left, small
 
     def __post_init__(self) -> None:
@@ -66,7 +70,7 @@ class SimRig:
         self.K = np.array(
             [[c.focal_px, 0.0, (c.width - 1) / 2.0], [0.0, c.focal_px, (c.height - 1) / 2.0], [0, 0, 1.0]]
         )
-        mid_T_camera = look_at(c.position, c.look_at)
+        mid_T_camera = look_at(c.position, c.look_at, c.right_hint)
         x_axis = mid_T_camera[:3, 0]
         self.base_T_left = mid_T_camera.copy()
         self.base_T_left[:3, 3] = np.asarray(c.position) - x_axis * c.baseline_m / 2
