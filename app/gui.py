@@ -230,7 +230,8 @@ class MainWindow(QtWidgets.QMainWindow):
         obs = self._result.marker(marker_id)
         if obs is None or obs.base_p_centre is None:
             return
-        self.target_panel.set_mode(TargetMode.MANUAL.value)
+        self.target_panel.set_mode(TargetMode.MANUAL.value)  # does not emit: tell the targeter
+        self.on_mode_changed(TargetMode.MANUAL.value)
         self.target_panel.set_manual_target(self.session.targeter.pointing.apply(obs.base_p_centre))
 
     def _update_preview(self) -> None:

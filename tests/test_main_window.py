@@ -1,0 +1,94 @@
+"""The main window on the simulated desk, with its three workers running (pytest-qt, offscreen)."""
+import numpy as np
+import pytest
+
+from app.gui import MainWindow
+from core.messages import TargetMode
+from core.session import DeskSession, SessionOptions
+
+
+@pytest.fixture
+def window(qtbot):
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    w.resize(800, 480)
+    w.show()
+    w.start()
+    yield w
+    w.stop()
+    for worker in (w.workers.perception, w.workers.control, w.workers.bridge):
+        assert worker.isFinished() or not worker.isRunning()
+
+
+def first_result_with(qtbot, window, predicate, timeout=5000):
+    with qtbot.waitSignal(window.workers.perception.sigResult, timeout=timeout,
+                          check_params_cb=predicate):
+        pass
+
+
+def test_markers_are_found_and_drawn(qtbot, window):
+    first_result_with(qtbot, window, lambda r: sum(m.found for m in r.markers) == 2)
+    window.redraw()
+    assert window._result is not None
+    assert {m.marker_id for m in window._result.markers if m.found} == {23, 50}
+
+
+def test_mode_switch_reaches_the_targeter(qtbot, window):
+    panel = window.target_panel
+    for mode in (TargetMode.LISSAJOUS, TargetMode.MANUAL, TargetMode.CUPS, TargetMode.FOLLOW):
+        with qtbot.waitSignal(panel.sigModeChanged, timeout=1000):
+            panel.mode_buttons[mode.value].click()
+        assert window.session.targeter.mode is mode
+
+
+def test_manual_slider_moves_the_arm_goal(qtbot, window):
+    panel = window.target_panel
+    panel.set_mode("manual")
+    window.on_mode_changed("manual")
+    with qtbot.waitSignal(panel.sigManualTargetChanged, timeout=1000):
+        panel.axes["x"].spin.setValue(-6.5)
+    assert window.session.targeter.manual_target[0] == pytest.approx(-0.065)
+    # the control worker turns it into a command aimed at that point
+    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=2000,
+                          check_params_cb=lambda cmd, goal: abs(goal.base_p_target[0] + 0.065) < 1e-9):
+        pass
+
+
+def test_lissajous_on_and_off(qtbot, window):
+    panel = window.target_panel
+    panel.set_mode("lissajous")
+    window.on_mode_changed("lissajous")
+    with qtbot.waitSignal(panel.sigLissajousRunning, timeout=1000):
+        panel.run_button.click()
+    assert window.session.targeter.lissajous_running
+    # the goal follows the curve: two commands some ticks apart aim at different points
+    seen = []
+
+    def moved(cmd, goal):
+        seen.append(goal.base_p_target)
+        return goal.mode is TargetMode.LISSAJOUS and len(seen) > 5 and seen[-1] != seen[0]
+
+    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=3000, check_params_cb=moved):
+        pass
+    with qtbot.waitSignal(panel.sigLissajousRunning, timeout=1000):
+        panel.run_button.click()
+    assert not window.session.targeter.lissajous_running
+
+
+def test_disparity_is_computed_only_while_shown(qtbot, window):
+    first_result_with(qtbot, window, lambda r: r.disparity is None)
+    with qtbot.waitSignal(window.view_left.sigDisplayModeChanged, timeout=1000):
+        window.view_left.toggle_button.click()
+    first_result_with(qtbot, window, lambda r: r.disparity is not None)
+    window._dirty = True
+    window.redraw()
+    with qtbot.waitSignal(window.view_left.sigDisplayModeChanged, timeout=1000):
+        window.view_left.toggle_button.click()
+    first_result_with(qtbot, window, lambda r: r.disparity is None)
+
+
+def test_window_fits_800x480(window):
+    window.redraw()
+    hint = window.minimumSizeHint()
+    assert hint.width() <= 800 and hint.height() <= 480, hint
