@@ -111,6 +111,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.splitter.addWidget(self.tabs)
         self.splitter.setStretchFactor(0, 3)
         self.splitter.setStretchFactor(1, 2)
+        self.splitter.setCollapsible(0, False)
+        self.splitter.setCollapsible(1, False)
         outer.addWidget(self.splitter, 1)
         self.setCentralWidget(central)
 
@@ -141,6 +143,15 @@ class MainWindow(QtWidgets.QMainWindow):
             a = np.linspace(0, 2 * math.pi, 121)
             top = np.c_[r_max * np.cos(a), r_max * np.sin(a)]
         self.twin.set_workspace(top, side)
+
+    def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802 (Qt override)
+        """Give the panels the width they need (~370 px) and the views the rest."""
+        super().resizeEvent(event)
+        width = self.splitter.width() or event.size().width()
+        needed = max(w.minimumSizeHint().width() for w in (self.target_panel, self.camera_panel, self.sgbm_panel, self.joints))
+        panel = max(needed + 40, int(0.30 * width))  # + the scroll bar and frame
+        panel = min(panel, max(300, width - 400), 560)
+        self.splitter.setSizes([width - panel, panel])
 
     # --- lifecycle --------------------------------------------------------------------------
     def start(self) -> None:
@@ -263,7 +274,9 @@ class MainWindow(QtWidgets.QMainWindow):
                     view.show_disparity(r.disparity, float(self.sgbm_panel.params().num_disparities + self.sgbm_panel.params().min_disparity))
                 else:
                     view.show_image(img)
-                overlays = [o for o in (MarkerOverlay.from_observation(m, side) for m in r.markers) if o is not None]
+                compact = view.width() < 420  # small views: ids only, positions are in the twin
+                overlays = [o for o in (MarkerOverlay.from_observation(m, side, "" if compact else None)
+                                        for m in r.markers) if o is not None]
                 view.set_markers(overlays)
                 view.set_fps(fps)
             self.twin.set_markers({m.marker_id: np.asarray(m.base_p_centre) for m in r.markers if m.found and m.base_p_centre is not None})

@@ -152,6 +152,21 @@ class SimStereoCamera(CameraSource):
         return self.rig.base_T_camera
 
 
+def _quietly(factory, dev):
+    """Open a capture without OpenCV's backend warnings (a missing camera is reported by us)."""
+    import cv2
+
+    logging = getattr(getattr(cv2, "utils", None), "logging", None)
+    if logging is None:
+        return factory(dev)
+    previous = logging.getLogLevel()
+    logging.setLogLevel(logging.LOG_LEVEL_ERROR)
+    try:
+        return factory(dev)
+    finally:
+        logging.setLogLevel(previous)
+
+
 class WebcamStereoCamera(CameraSource):
     """Two USB webcams opened with OpenCV, one grabbing thread each keeping only the latest frame."""
 
@@ -181,7 +196,7 @@ class WebcamStereoCamera(CameraSource):
         factory = self._factory or cv2.VideoCapture
         caps = []
         for dev in self.devices:
-            cap = factory(dev)
+            cap = _quietly(factory, dev)
             if not cap.isOpened():
                 for c in caps:
                     c.release()

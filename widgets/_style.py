@@ -1,0 +1,181 @@
+"""Shared touch-friendly sizes, colours and small widget factories (private to ``widgets``)."""
+from __future__ import annotations
+
+from PySide6 import QtCore, QtGui, QtWidgets
+
+# A fingertip is ~8-10 mm; on a 7" 800x480 panel that is ~40-45 px.
+TOUCH_PX = 44
+
+OK_COLOUR = "#2e9d44"
+WARN_COLOUR = "#e08a00"
+ERROR_COLOUR = "#d32f2f"
+INFO_COLOUR = "#1e6fd0"
+ACCENT_COLOUR = "#3a7bd5"
+
+# The handle is the groove (8 px) plus 2 x 18 px negative margin = 44 px tall.
+SLIDER_STYLE = f"""
+QSlider {{ min-height: {TOUCH_PX}px; }}
+QSlider::groove:horizontal {{
+    height: 8px; border-radius: 4px; background: #9e9e9e;
+}}
+QSlider::sub-page:horizontal {{ height: 8px; border-radius: 4px; background: {ACCENT_COLOUR}; }}
+QSlider::handle:horizontal {{
+    width: 30px; margin: -18px 0; border-radius: 8px;
+    background: #f4f4f4; border: 2px solid {ACCENT_COLOUR};
+}}
+QSlider::handle:horizontal:disabled {{ background: #d0d0d0; border: 2px solid #9e9e9e; }}
+QSlider::sub-page:horizontal:disabled {{ background: #bdbdbd; }}
+"""
+
+SPIN_BUTTON_PX = 32
+# Big up/down buttons on either side of the number instead of Qt's tiny stacked arrows:
+# "−" on the left, "+" on the right, each a full-height touch target.
+SPIN_STYLE = f"""
+QAbstractSpinBox {{
+    min-height: {TOUCH_PX - 4}px; padding-left: {SPIN_BUTTON_PX + 2}px;
+    padding-right: {SPIN_BUTTON_PX + 2}px;
+}}
+QAbstractSpinBox::up-button {{
+    subcontrol-origin: border; subcontrol-position: center right;
+    width: {SPIN_BUTTON_PX}px; height: {TOUCH_PX - 6}px;
+}}
+QAbstractSpinBox::down-button {{
+    subcontrol-origin: border; subcontrol-position: center left;
+    width: {SPIN_BUTTON_PX}px; height: {TOUCH_PX - 6}px;
+}}
+"""
+
+BUTTON_STYLE = f"""
+QPushButton {{ min-height: {TOUCH_PX}px; padding: 0 12px; }}
+QPushButton:checked {{
+    background: {ACCENT_COLOUR}; color: white; font-weight: bold;
+    border: 1px solid #245ea8; border-radius: 4px;
+}}
+"""
+
+
+def touch_slider(slider: QtWidgets.QWidget) -> QtWidgets.QWidget:
+    """Give a (superqt or plain) horizontal slider a tall, finger-sized handle."""
+    slider.setStyleSheet(SLIDER_STYLE)
+    slider.setMinimumHeight(TOUCH_PX)
+    return slider
+
+
+def touch_button(text: str, checkable: bool = False,
+                 parent: QtWidgets.QWidget | None = None) -> QtWidgets.QPushButton:
+    """A QPushButton at least TOUCH_PX tall (checked state clearly highlighted)."""
+    button = QtWidgets.QPushButton(text, parent)
+    button.setCheckable(checkable)
+    button.setMinimumHeight(TOUCH_PX)
+    button.setStyleSheet(BUTTON_STYLE)
+    button.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+    # room for the bold text of the checked state, so it is never clipped
+    bold = QtGui.QFont(button.font())
+    bold.setBold(True)
+    button.setMinimumWidth(QtGui.QFontMetrics(bold).horizontalAdvance(text) + 28)
+    return button
+
+
+class TouchDoubleSpinBox(QtWidgets.QDoubleSpinBox):
+    """A QDoubleSpinBox with big −/+ buttons, no wheel surprises and commit-on-Enter.
+
+    ``keyboardTracking`` is off: typing "12.3" commits once (on Enter or focus loss), not as
+    1, 12, 12.3. The mouse wheel only acts when the box has focus, so scrolling a page on a
+    touch pad does not change values under the pointer.
+    """
+
+    def __init__(self, lo: float, hi: float, decimals: int = 1, step: float = 0.5,
+                 suffix: str = "", parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setRange(lo, hi)
+        self.setDecimals(decimals)
+        self.setSingleStep(step)
+        if suffix:
+            self.setSuffix(suffix)
+        self.setKeyboardTracking(False)
+        self.setAccelerated(True)
+        self.setButtonSymbols(QtWidgets.QAbstractSpinBox.ButtonSymbols.PlusMinus)
+        self.setAlignment(QtCore.Qt.AlignmentFlag.AlignCenter)
+        self.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+        self.setStyleSheet(SPIN_STYLE)
+        self.setMinimumHeight(TOUCH_PX - 4)
+        self.setMinimumWidth(self._width_for(lo, hi, decimals, suffix))
+
+    def _width_for(self, lo: float, hi: float, decimals: int, suffix: str) -> int:
+        fm = self.fontMetrics()
+        text = max(f"{lo:.{decimals}f}", f"{hi:.{decimals}f}", key=len) + suffix
+        return fm.horizontalAdvance(text) + 2 * (SPIN_BUTTON_PX + 2) + 8
+
+    def wheelEvent(self, event: QtGui.QWheelEvent) -> None:  # noqa: N802 (Qt override)
+        if self.hasFocus():
+            super().wheelEvent(event)
+        else:
+            event.ignore()
+
+
+def coloured_label_style(colour: str, bold: bool = True) -> str:
+    """Stylesheet for a label with a coloured background and white text."""
+    weight = "bold" if bold else "normal"
+    return (f"QLabel {{ background: {colour}; color: white; font-weight: {weight};"
+            f" padding: 4px 8px; border-radius: 3px; }}")
+
+
+SCROLL_STYLE = """
+QScrollBar:vertical { width: 26px; }
+QScrollBar::handle:vertical { min-height: 44px; }
+"""
+
+
+def touch_scroll_area(content: QtWidgets.QWidget,
+                      parent: QtWidgets.QWidget | None = None) -> QtWidgets.QScrollArea:
+    """A vertical-only scroll area with a finger-wide scroll bar around ``content``."""
+    area = QtWidgets.QScrollArea(parent)
+    area.setWidget(content)
+    area.setWidgetResizable(True)
+    area.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
+    area.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    area.verticalScrollBar().setStyleSheet(SCROLL_STYLE)
+    # Vertical-only: never narrower than the content plus the scroll bar, or it would clip.
+    area.setMinimumWidth(content.minimumSizeHint().width()
+                         + area.verticalScrollBar().sizeHint().width() + 2)
+    return area
+
+
+class Coalescer(QtCore.QObject):
+    """Coalesce bursts of changes into at most one call per ``interval_ms``.
+
+    ``poke()`` arms a single-shot timer unless it is already armed, so a slider dragged
+    continuously reports every interval (live feedback) instead of on every pixel, and a
+    single click reports once, ``interval_ms`` later.
+    """
+
+    def __init__(self, interval_ms: int, callback, parent: QtCore.QObject | None = None) -> None:
+        super().__init__(parent)
+        self._callback = callback
+        self._timer = QtCore.QTimer(self)
+        self._timer.setSingleShot(True)
+        self._timer.setInterval(interval_ms)
+        self._timer.timeout.connect(self._fire)
+
+    def poke(self) -> None:
+        """Schedule a call unless one is already pending."""
+        if not self._timer.isActive():
+            self._timer.start()
+
+    def cancel(self) -> None:
+        """Drop the pending call, if any."""
+        self._timer.stop()
+
+    def flush(self) -> None:
+        """Make the pending call now (no-op when nothing is pending)."""
+        if self._timer.isActive():
+            self._timer.stop()
+            self._callback()
+
+    @property
+    def pending(self) -> bool:
+        """True while a call is scheduled."""
+        return self._timer.isActive()
+
+    def _fire(self) -> None:
+        self._callback()
