@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup run test bench firmware-test clean
+.PHONY: setup run test bench firmware-test clean install-desktop
 
 setup: $(STAMP)
 
@@ -39,3 +39,10 @@ bench: $(STAMP)
 clean:
 	rm -rf $(VENV) build *.egg-info
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware clean; fi
+
+# Put deskarm in the desktop's application menu (double-click to start).
+install-desktop: $(STAMP)
+	mkdir -p $(HOME)/.local/share/applications $(HOME)/.local/share/icons/hicolor/scalable/apps
+	sed "s|^Exec=deskarm|Exec=$(abspath $(VENV))/bin/deskarm|" resources/deskarm.desktop > $(HOME)/.local/share/applications/deskarm.desktop
+	cp resources/deskarm.svg $(HOME)/.local/share/icons/hicolor/scalable/apps/deskarm.svg
+	@echo "deskarm is now in your application menu"

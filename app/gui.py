@@ -307,6 +307,11 @@ class MainWindow(QtWidgets.QMainWindow):
 def _make_app() -> QtWidgets.QApplication:
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
     app.setApplicationName("deskarm")
+    from pathlib import Path
+
+    icon = Path(__file__).resolve().parents[1] / "resources" / "deskarm.svg"
+    if icon.is_file():
+        app.setWindowIcon(QtGui.QIcon(str(icon)))
     return app
 
 
