@@ -246,14 +246,17 @@ class MainWindow(QtWidgets.QMainWindow):
         self.target_panel.set_manual_target(self.session.targeter.pointing.apply(obs.base_p_centre))
 
     def _update_preview(self) -> None:
+        """Lissajous preview in the twin, with out-of-reach points moved to the nearest reachable."""
         t = self.session.targeter
-        if t.mode is TargetMode.LISSAJOUS:
-            params = t.lissajous
-            ts = np.linspace(0.0, params.period_s(), 600)
-            pts = np.array([params.point(x) for x in ts])
-            self.twin.set_preview(pts)
-        else:
+        if t.mode is not TargetMode.LISSAJOUS:
             self.twin.set_preview(None)
+            self._preview_note = ""
+            return
+        points, outside = lissajous_preview(t.lissajous, self.session.kinematics)
+        self.twin.set_preview(points)
+        self._preview_note = (
+            f"{outside:.0%} of the curve is out of reach (drawn at the nearest reachable point)" if outside else ""
+        )
 
     # --- drawing ------------------------------------------------------------------------------
     def redraw(self) -> None:
@@ -294,6 +297,8 @@ class MainWindow(QtWidgets.QMainWindow):
             elif cmd is not None and not cmd.reachable:
                 self.target_panel.set_reach_status(
                     f"out of reach by {cmd.reach_error_m * 1e3:.0f} mm — going to the nearest point", False)
+            elif goal.mode is TargetMode.LISSAJOUS and getattr(self, "_preview_note", ""):
+                self.target_panel.set_reach_status(self._preview_note, False)
             else:
                 self.target_panel.set_reach_status(f"on target{' · ' + goal.note if goal.note else ''}", True)
         cmd_deg = s.profile.to_servo_deg(cmd.q) if cmd is not None else None
@@ -302,6 +307,21 @@ class MainWindow(QtWidgets.QMainWindow):
         b = self._bridge_status
         bridge_text = "—" if b is None else (f"{b.url} ✓ {b.commands_sent} cmds" if b.connected else f"{b.url} ✗ {b.message}")
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
+
+
+def lissajous_preview(params, kinematics, n: int = 400):
+    """Curve points (n,3) with unreachable ones replaced by the nearest reachable, and the
+    fraction that was out of reach."""
+    ts = np.linspace(0.0, params.period_s(), n)
+    points = np.empty((n, 3))
+    outside = 0
+    q = None
+    for k, t in enumerate(ts):
+        ik = kinematics.ik(params.point(t), q)
+        q = ik.q
+        points[k] = ik.base_p_reached
+        outside += int(not ik.reachable)
+    return points, outside / n
 
 
 def _make_app() -> QtWidgets.QApplication:

@@ -15,7 +15,6 @@ def _row(name, unit, samples, baseline=None, extra=""):
 def collect(quick: bool = False) -> list[dict]:
     """Run every benchmark; ``quick`` uses fewer samples (used by the test of this table)."""
     rows: list[dict] = []
-    n = 40 if quick else 1
     from bench import bench_perception
 
     rows += bench_perception.bench_perception(60 if quick else 300)
@@ -34,7 +33,6 @@ def collect(quick: bool = False) -> list[dict]:
     from bench import bench_pipeline
 
     rows += bench_pipeline.rows(quick)
-    del n
     return rows
 
 
@@ -49,7 +47,10 @@ def format_table(rows: list[dict]) -> str:
         base = by_name.get(r.get("baseline") or "")
         if base is not None:
             bmed = float(np.median(base["samples"]))
-            ratio = f"{bmed / med:5.2f}x faster than '{base['name']}'" if med > 0 else ""
+            if med > 0 and med <= bmed:
+                ratio = f"{bmed / med:5.2f}x faster than '{base['name']}'"
+            elif bmed > 0:
+                ratio = f"{med / bmed:5.2f}x the time of '{base['name']}'"
         unit = r["unit"]
         lines.append(f"{r['name']:48s} {med:9.3f}{unit:>2s} {p95:9.3f}{unit:>2s} {len(s):6d}  {ratio}")
         if r.get("extra"):
