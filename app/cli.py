@@ -19,6 +19,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="deskarm",
         description="See objects on the desk in 3D with two webcams and have a servo arm reach them. "
         "With nothing plugged in it runs on a simulated desk.",
+        epilog="tools: deskarm calibrate --help | deskarm ik --help | deskarm bench-ik --help",
     )
     p.add_argument("--camera", default="auto", help=f"camera source: {CAMERA_CHOICES} (default: auto)")
     p.add_argument("--bridge", default="sim://", help=f"motor bridge: {BRIDGE_CHOICES} (default: sim://)")
@@ -46,8 +47,21 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+# `deskarm NAME ...` runs a tool: NAME -> module with `run(command: str, argv: list[str]) -> int`
+SUBCOMMANDS = {
+    "calibrate": "app.cli_calibrate",
+    "ik": "app.cli_kinematics",
+    "bench-ik": "app.cli_kinematics",
+}
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in SUBCOMMANDS:
+        import importlib
+
+        module = importlib.import_module(SUBCOMMANDS[argv[0]])
+        return module.run(argv[0], argv[1:])
     args = build_parser().parse_args(argv)
     options = SessionOptions(
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
