@@ -1,0 +1,33 @@
+/* The thin hardware layer between fw.c and the MSP430FR5969's registers.
+ * Everything here is register plumbing; every decision lives in src/fw.c. */
+#ifndef DESKARM_HAL_H
+#define DESKARM_HAL_H
+
+#include <stdint.h>
+
+#define HAL_JOINTS 3u /* PWM outputs on the board: P1.3 (TA1.2), P1.4 (TB0.1), P1.5 (TB0.2) */
+
+/* Clocks (DCO 8 MHz), UART 9600 8N1 on eUSCI_A0 (P2.0 TXD, P2.1 RXD: the LaunchPad's
+ * back-channel UART), 50 Hz PWM with 1 us resolution, all outputs off. Enables interrupts. */
+void hal_init(void);
+
+/* Next received byte: 1 and *byte set, or 0 when none is waiting. */
+uint8_t hal_uart_getc(uint8_t *byte);
+
+/* Queue bytes for interrupt-driven transmission; returns how many fitted. */
+uint8_t hal_uart_write(const uint8_t *data, uint8_t len);
+
+/* Free space in the transmit queue. */
+uint8_t hal_uart_tx_free(void);
+
+/* 20 ms servo periods elapsed since the last call. */
+uint8_t hal_take_ticks(void);
+
+/* Pulse widths in microseconds (0 = output held low) for the first HAL_JOINTS joints;
+ * loaded into the timers at the start of the next PWM period. */
+void hal_set_pulses(const uint16_t *pulse_us);
+
+/* Sleep (LPM0) until an interrupt, unless a byte or a tick is already waiting. */
+void hal_wait_for_event(void);
+
+#endif
