@@ -18,7 +18,9 @@ from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
 from widgets.arm_twin import ArmTwin
 from widgets.camera_controls import CameraSettingsPanel, SgbmPanel
-from widgets.camera_view import CameraView, MarkerOverlay, marker_label
+from widgets.bridge_picker import BridgePicker
+from widgets.camera_view import CameraView, MarkerOverlay
+from widgets.estop import EStopButton
 from widgets.joint_readout import JointReadout
 from widgets.status import Banner, StatusBarItems
 from widgets.target_panel import TargetPanel
@@ -60,12 +62,17 @@ class MainWindow(QtWidgets.QMainWindow):
         outer = QtWidgets.QVBoxLayout(central)
         outer.setContentsMargins(4, 4, 4, 4)
         outer.setSpacing(4)
+        top = QtWidgets.QHBoxLayout()
         self.banner = Banner()
-        outer.addWidget(self.banner)
-        if s.banners:
-            self.banner.show_message(" · ".join(s.banners), "warn" if "UNCALIBRATED" in " ".join(s.banners) else "info")
-        else:
-            self.banner.clear()
+        top.addWidget(self.banner, 1)
+        self.estop_button = EStopButton()
+        self.estop_button.sigEstopChanged.connect(self.on_estop)
+        top.addWidget(self.estop_button)
+        outer.addLayout(top)
+        stop_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Escape), self)
+        stop_shortcut.setContext(QtCore.Qt.ShortcutContext.ApplicationShortcut)
+        stop_shortcut.activated.connect(self.estop_button.engage)
+        self._restore_banner()
 
         self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
         self.splitter.setHandleWidth(10)  # wide enough to drag with a finger
@@ -99,8 +106,16 @@ class MainWindow(QtWidgets.QMainWindow):
             s.profile.joint_names, [j.servo_min_deg for j in s.profile.joints],
             [j.servo_max_deg for j in s.profile.joints],
         )
+        self.bridge_picker = BridgePicker(list_port_choices)
+        self.bridge_picker.sigConnectRequested.connect(self.on_bridge_requested)
+        robot_page = QtWidgets.QWidget()
+        robot_layout = QtWidgets.QVBoxLayout(robot_page)
+        robot_layout.setContentsMargins(0, 0, 0, 0)
+        robot_layout.addWidget(self.joints)
+        robot_layout.addWidget(self.bridge_picker)
+        robot_layout.addStretch(1)
         for widget, title in ((self.target_panel, "Target"), (self.camera_panel, "Camera"),
-                              (self.sgbm_panel, "Stereo"), (self.joints, "Joints")):
+                              (self.sgbm_panel, "Stereo"), (robot_page, "Robot")):
             area = QtWidgets.QScrollArea()
             area.setWidgetResizable(True)
             area.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
@@ -148,7 +163,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Give the panels the width they need (~370 px) and the views the rest."""
         super().resizeEvent(event)
         width = self.splitter.width() or event.size().width()
-        needed = max(w.minimumSizeHint().width() for w in (self.target_panel, self.camera_panel, self.sgbm_panel, self.joints))
+        needed = max(w.minimumSizeHint().width() for w in (self.target_panel, self.camera_panel, self.sgbm_panel, self.joints, self.bridge_picker))
         panel = max(needed + 40, int(0.30 * width))  # + the scroll bar and frame
         panel = min(panel, max(300, width - 400), 560)
         self.splitter.setSizes([width - panel, panel])
@@ -228,6 +243,29 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_sgbm_params(self, params) -> None:
         self.workers.perception.set_sgbm_params(params)
 
+    @QtCore.Slot(bool)
+    def on_estop(self, engaged: bool) -> None:
+        """E-stop: the control worker refuses commands and the bridge stops the arm."""
+        if engaged:
+            self.session.controller.estop()
+            self.banner.show_message("E-STOP — the arm is stopped. Tap RE-ARM to resume.", "error")
+        else:
+            self.session.controller.rearm()
+            self._restore_banner()
+        self.workers.bridge.request_estop(engaged)
+
+    def _restore_banner(self) -> None:
+        s = self.session
+        if s.banners:
+            self.banner.show_message(" · ".join(s.banners), "warn" if "UNCALIBRATED" in " ".join(s.banners) else "info")
+        else:
+            self.banner.clear()
+
+    @QtCore.Slot(str)
+    def on_bridge_requested(self, url: str) -> None:
+        self.bridge_picker.set_status(f"connecting to {url} …", True)
+        self.workers.bridge.request_bridge(url)
+
     @QtCore.Slot(str)
     def on_display_mode(self, _mode: str) -> None:
         wanted = "disparity" in (self.view_left.display_mode, self.view_right.display_mode)
@@ -306,7 +344,25 @@ class MainWindow(QtWidgets.QMainWindow):
         self.joints.set_values(cmd_deg, meas_deg)
         b = self._bridge_status
         bridge_text = "—" if b is None else (f"{b.url} ✓ {b.commands_sent} cmds" if b.connected else f"{b.url} ✗ {b.message}")
+        if not s.controller.armed:
+            bridge_text = f"E-STOP · {bridge_text}"
+        if b is not None:
+            self.bridge_picker.set_status(f"{b.url}: {'connected' if b.connected else 'not connected'}"
+                                          f"{' — ' + b.message if b.message else ''}", b.connected)
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
+
+
+def list_port_choices() -> list[tuple[str, str]]:
+    """(label, path) for each serial port, stable names first (empty if listing fails)."""
+    try:
+        from core.serial_ports import list_ports, preferred_name
+    except ImportError:
+        return []
+    out = []
+    for info in list_ports():
+        path = preferred_name(info)
+        out.append((f"{path} — {info.description}" if info.description else path, path))
+    return out
 
 
 def lissajous_preview(params, kinematics, n: int = 400):

@@ -208,11 +208,52 @@ class BridgeWorker(_LoopThread):
         self._last_status_t = 0.0
         self._retry_at = 0.0
         self._backoff = 0.5
+        self._requests_lock = threading.Lock()
+        self._estop_request: Optional[bool] = None
+        self._bridge_request: Optional[str] = None
 
     def wake(self) -> None:
         self.commands.wake()
 
+    def request_estop(self, engaged: bool) -> None:
+        """Stop (True) or re-arm (False) the arm; carried out in this worker's thread."""
+        with self._requests_lock:
+            self._estop_request = bool(engaged)
+        self.commands.wake()
+
+    def request_bridge(self, url: str) -> None:
+        """Switch to another bridge (URL as for --bridge); carried out in this worker's thread."""
+        with self._requests_lock:
+            self._bridge_request = url
+        self.commands.wake()
+
+    def _handle_requests(self) -> None:
+        with self._requests_lock:
+            estop, self._estop_request = self._estop_request, None
+            url, self._bridge_request = self._bridge_request, None
+        s = self.session
+        if url is not None:
+            from core.bridge import open_bridge
+
+            try:
+                new = open_bridge(url, s.profile, clock=s.clock)
+            except ValueError as exc:  # unknown URL: keep the bridge that works
+                s.bridge.message = str(exc)
+            else:
+                s.bridge.disconnect()
+                s.bridge = new
+                self._retry_at, self._backoff = 0.0, 0.5
+                self._ensure_connected()
+        if estop is not None:
+            method = getattr(s.bridge, "estop" if estop else "rearm", None)
+            if method is not None and s.bridge.is_connected:
+                try:
+                    method()
+                except BridgeError as exc:
+                    s.bridge.message = str(exc)
+
     def _ensure_connected(self) -> bool:
+        """Connect if needed, retrying with a growing delay (0.5 s … 5 s) after failures."""
         b = self.session.bridge
         if b.is_connected:
             return True
@@ -234,6 +275,9 @@ class BridgeWorker(_LoopThread):
         cmd, self._version = self.commands.wait_newer(self._version, timeout=0.1)
         if not self.running:
             return
+        self._handle_requests()
+        if not s.controller.armed:
+            cmd = None  # e-stop: nothing is written until the user re-arms
         if self._ensure_connected():
             if cmd is not None:
                 try:

@@ -1,6 +1,7 @@
 """The main window on the simulated desk, with its three workers running (pytest-qt, offscreen)."""
 import numpy as np
 import pytest
+from PySide6 import QtCore
 
 from app.gui import MainWindow
 from core.messages import TargetMode
@@ -92,3 +93,35 @@ def test_window_fits_800x480(window):
     window.redraw()
     hint = window.minimumSizeHint()
     assert hint.width() <= 800 and hint.height() <= 480, hint
+
+
+def test_estop_stops_commands_until_rearmed(qtbot, window):
+    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=2000):
+        pass
+    window.estop_button.engage()
+    assert window.estop_button.engaged and not window.session.controller.armed
+    assert "E-STOP" in window.banner.text()
+    # a tick or two may already be in flight; after that, nothing is commanded
+    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=300, raising=False):
+        pass
+    with qtbot.assertNotEmitted(window.workers.control.sigCommand, wait=300):
+        pass
+    window.estop_button.click()  # re-arm takes a deliberate tap
+    assert window.session.controller.armed
+    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=2000):
+        pass
+
+
+def test_escape_key_engages_the_estop(qtbot, window):
+    window.activateWindow()
+    qtbot.keyClick(window, QtCore.Qt.Key.Key_Escape)
+    assert window.estop_button.engaged
+
+
+def test_unknown_bridge_url_keeps_the_working_bridge(qtbot, window):
+    before = window.session.bridge
+    window.on_bridge_requested("bluetooth:arm")
+    with qtbot.waitSignal(window.workers.bridge.sigStatus, timeout=3000,
+                          check_params_cb=lambda st: "bluetooth" in st.message):
+        pass
+    assert window.session.bridge is before and before.is_connected
