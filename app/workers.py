@@ -237,16 +237,26 @@ class BridgeWorker(_LoopThread):
 
             try:
                 new = open_bridge(url, s.profile, clock=s.clock)
-            except ValueError as exc:  # unknown URL: keep the bridge that works
+            except (ValueError, BridgeError) as exc:  # unknown URL or unfit profile: keep the bridge that works
                 s.bridge.message = str(exc)
             else:
-                s.bridge.disconnect()
-                s.bridge = new
-                self._retry_at, self._backoff = 0.0, 0.5
-                self._ensure_connected()
+                old = s.bridge
+                old.disconnect()
+                try:
+                    new.connect()
+                except BridgeError as exc:
+                    # keep what was working: reconnect the previous bridge and say why
+                    try:
+                        old.connect()
+                    except BridgeError:
+                        pass
+                    old.message = f"could not switch to {url}: {exc} — still on {old.url}"
+                else:
+                    s.bridge = new
+                    self._retry_at, self._backoff = 0.0, 0.5
         if estop is not None:
             method = getattr(s.bridge, "estop" if estop else "rearm", None)
-            if method is not None and s.bridge.is_connected:
+            if method is not None:  # bridges keep an e-stop made while disconnected
                 try:
                     method()
                 except BridgeError as exc:

@@ -1,12 +1,31 @@
-"""Motor bridges: one interface, a simulated servo arm and the seed serial protocol (v1).
+"""Motor bridges: one interface, a simulated servo arm and the two serial protocols.
 
-``open_bridge("sim://", profile)`` gives the simulated arm; ``/dev/ttyACM0``, ``loop://`` or any
-pyserial URL gives the v1 serial bridge. Every bridge clamps again before it writes: no path can
-command a servo outside its joint limits or outside 0–180°.
+``open_bridge(url, profile)`` chooses the implementation from the URL:
+
+- ``sim://`` — the simulated arm (SimServoArm);
+- ``/dev/ttyACM0``, ``COM3``, ``loop://`` or any pyserial URL, or the same with ``v1:`` in
+  front — the seed protocol v1 (SerialV1Bridge): no feedback, the twin shows commanded angles;
+- ``v2:/dev/ttyACM0`` — our protocol v2 (core.bridge_v2.SerialV2Bridge): measured joint
+  states, heartbeat, watchdog, e-stop.
+
+There is deliberately no auto-detection of the protocol. Probing means sending a v2 frame
+(a PING is ``F5 F5 00 05 seq crc crc F7``) to a board that may run the ORIGINAL firmware, which
+knows nothing of frames: it reads every byte 0x00–0xB4 as an angle for whichever joint a
+previous host left selected — the 0x00 in the PING alone would swing that joint to 0°. A
+probe could move the arm, so the user says which firmware the board runs.
+
+Every bridge clamps again before it writes: no path can command a servo outside its joint
+limits or outside 0–180°. Every bridge has ``estop()`` / ``rearm()``: while e-stopped
+``send`` writes nothing and returns ``()``; v2 also switches the pulses off on the board, the
+simulated arm freezes, v1 can only stop sending (the servos hold their last position).
 """
 from __future__ import annotations
 
+import errno
 import math
+import os
+import re
+import stat
 import threading
 from abc import ABC, abstractmethod
 from typing import Optional, Sequence
@@ -14,9 +33,14 @@ from typing import Optional, Sequence
 from core.clock import WallClock
 from core.messages import BridgeStatus, JointCommand, JointState, SequenceCounter
 from core.protocol_v1 import V1_BAUD, encode_v1
-from core.safety import to_servo_bytes_deg
+from core.safety import clamp_to_limits, to_servo_bytes_deg
 
-BRIDGE_CHOICES = "sim:// (simulated arm) | /dev/ttyACM0, /dev/ttyUSB0, COM3 … (serial, protocol v1) | loop:// (pyserial loopback)"
+BRIDGE_CHOICES = (
+    "sim:// (simulated arm) | /dev/ttyACM0, /dev/ttyUSB0, /dev/serial/by-id/…, COM3 or v1:<port> "
+    "(original firmware, protocol v1: no feedback) | v2:<port>, e.g. v2:/dev/ttyACM0 (deskarm "
+    "firmware, protocol v2: feedback, watchdog, e-stop) | loop:// (pyserial loopback). "
+    "No auto-detection: a v2 probe would move an arm running the original firmware"
+)
 
 
 class BridgeError(RuntimeError):
@@ -31,6 +55,7 @@ class MotorBridge(ABC):
     """
 
     has_feedback = False
+    _estopped = False  # class default, so subclasses that skip __init__ still work
 
     def __init__(self, url: str, profile, clock=None):
         self.url = url
@@ -59,7 +84,12 @@ class MotorBridge(ABC):
         """Write whole-degree servo angles; returns the number of bytes written."""
 
     def send(self, command: JointCommand) -> tuple[int, ...]:
-        """Clamp, convert to servo degrees and write; returns the servo angles sent."""
+        """Clamp, convert to servo degrees and write; returns the servo angles sent.
+
+        While e-stopped nothing is written and the result is ``()``.
+        """
+        if self._estopped:
+            return ()
         servo_deg = to_servo_bytes_deg(command.q, self.profile)
         written = self._write_servo_deg(servo_deg)
         self.commands_sent += 1
@@ -76,9 +106,43 @@ class MotorBridge(ABC):
         q = servo_deg_to_q(self._last_sent_deg, self.profile)
         return JointState(seq=self._state_seq.next(), t=self.clock.now(), q=q, measured=False)
 
+    @property
+    def is_estopped(self) -> bool:
+        """True from ``estop()`` until ``rearm()``."""
+        return self._estopped
+
+    def estop(self) -> None:
+        """Stop the arm now; nothing is sent until ``rearm()``.
+
+        The base behaviour (v1) is to stop writing: the seed firmware has no stop command,
+        so its servos hold their last position. Subclasses also act on the device
+        (``_on_estop``). Works while disconnected too: the state is kept for the next connect.
+        """
+        self._estopped = True
+        self._on_estop()
+
+    def rearm(self) -> None:
+        """End an e-stop: commands are sent again (nothing moves until the next one)."""
+        self._estopped = False
+        self._on_rearm()
+
+    def _on_estop(self) -> None:
+        """Device-specific part of ``estop()``; the base only stops sending."""
+
+    def _on_rearm(self) -> None:
+        """Device-specific part of ``rearm()``."""
+
+    def _estop_text(self) -> str:
+        """What an e-stop means on this bridge, for the status bar."""
+        return ("E-STOP: not sending — protocol v1 cannot switch the servos off, they hold "
+                "their last position; re-arm to resume")
+
     def status(self) -> BridgeStatus:
+        message = self.message
+        if self._estopped:
+            message = f"{self._estop_text()} · {message}" if message else self._estop_text()
         return BridgeStatus(
-            url=self.url, connected=self.is_connected, message=self.message,
+            url=self.url, connected=self.is_connected, message=message,
             commands_sent=self.commands_sent, bytes_written=self.bytes_written,
             last_write_t=self.last_write_t, last_source_t=self.last_source_t,
         )
@@ -97,22 +161,36 @@ def servo_deg_to_q(servo_deg: Sequence[float], profile) -> tuple[float, ...]:
 
 
 class SimServoArm(MotorBridge):
-    """A simulated hobby-servo arm (MG996R-like).
+    """A simulated arm, for every profile; it starts at the profile's home pose.
 
-    Each servo turns toward its commanded angle at ``speed_deg_s`` (~60° in 0.17 s), in whole
-    degree steps, updated at ``rate_hz`` (the 50 Hz PWM frame). It starts at the profile's home.
+    Servo profiles (desk_rrr, delta): hobby servos (MG996R-like). Each servo turns toward its
+    commanded angle at ``speed_deg_s`` (~60° in 0.17 s), in whole degree steps, updated at
+    ``rate_hz`` (the 50 Hz PWM frame); ``send`` returns the servo angles, as on the real link.
+
+    Other profiles (umi_rtx, URDF arms): no servos. Each joint moves in joint space toward its
+    command at its own velocity limit (``profile.velocity_limits``, rad/s or m/s), updated at
+    ``rate_hz``. Commands are clamped into the joint limits; ``send`` returns ``()`` — there are
+    no servo angles — and ``last_sent_q`` holds the joint values commanded.
     """
 
     has_feedback = True
+    SETTLED_TOL = 1e-9  # joint-space mode: |position - target| below this is "arrived" (rad or m)
 
     def __init__(self, profile, clock=None, speed_deg_s: float = 60.0 / 0.17,
                  rate_hz: float = 50.0, url: str = "sim://"):
         super().__init__(url, profile, clock)
         self.speed_deg_s = float(speed_deg_s)
         self.period_s = 1.0 / float(rate_hz)
-        home = profile.to_servo_deg(profile.q_home)
-        self.position_deg = [float(round(d)) for d in home]
-        self.target_deg = list(self.position_deg)
+        self.servo_mode = bool(profile.has_servos)
+        self.last_sent_q: Optional[tuple[float, ...]] = None
+        if self.servo_mode:
+            home = profile.to_servo_deg(profile.q_home)
+            self.position_deg = [float(round(d)) for d in home]
+            self.target_deg = list(self.position_deg)
+        else:
+            self.position_q = [float(v) for v in profile.q_home]
+            self.target_q = list(self.position_q)
+            self.joint_speeds = tuple(float(v) for v in profile.velocity_limits)  # rad/s or m/s
         self._connected = False
         self._last_tick: Optional[float] = None
         self._lock = threading.Lock()
@@ -130,20 +208,43 @@ class SimServoArm(MotorBridge):
         return self._connected
 
     def _advance(self) -> None:
-        """Run the servo model's 50 Hz ticks up to now."""
+        """Run the arm model's ticks (``rate_hz``) up to now."""
         now = self.clock.now()
         if self._last_tick is None:
             self._last_tick = now
-        max_step = self.speed_deg_s * self.period_s
         ticks = 0
         while now - self._last_tick >= self.period_s and ticks < 500:
             self._last_tick += self.period_s
             ticks += 1
-            for k, (pos, tgt) in enumerate(zip(self.position_deg, self.target_deg)):
-                step = max(-max_step, min(max_step, tgt - pos))
-                self.position_deg[k] = float(round(pos + step))  # 1° resolution
+            if self.servo_mode:
+                max_step = self.speed_deg_s * self.period_s
+                for k, (pos, tgt) in enumerate(zip(self.position_deg, self.target_deg)):
+                    step = max(-max_step, min(max_step, tgt - pos))
+                    self.position_deg[k] = float(round(pos + step))  # 1° resolution
+            else:
+                for k, (pos, tgt, v) in enumerate(zip(self.position_q, self.target_q, self.joint_speeds)):
+                    max_step = v * self.period_s
+                    self.position_q[k] = pos + max(-max_step, min(max_step, tgt - pos))
         if ticks >= 500:
             self._last_tick = now
+
+    def send(self, command: JointCommand) -> tuple[int, ...]:
+        """Clamp and command; servo angles sent (servo profiles) or () (joint-space profiles)."""
+        if self._estopped:
+            return ()
+        if self.servo_mode:
+            return super().send(command)
+        if not self._connected:
+            raise BridgeError("simulated arm is not connected")
+        q_safe, _ = clamp_to_limits(command.q, self.profile)
+        with self._lock:
+            self._advance()
+            self.target_q = list(q_safe)
+        self.commands_sent += 1
+        self.last_write_t = self.clock.now()
+        self.last_source_t = command.source_t
+        self.last_sent_q = q_safe
+        return ()
 
     def _write_servo_deg(self, servo_deg: tuple[int, ...]) -> int:
         if not self._connected:
@@ -151,31 +252,69 @@ class SimServoArm(MotorBridge):
         with self._lock:
             self._advance()
             self.target_deg = [float(d) for d in servo_deg]
+        self.last_sent_q = servo_deg_to_q(servo_deg, self.profile)
         return len(encode_v1(servo_deg)) if len(servo_deg) <= 3 else 0
 
     def joint_state(self) -> JointState:
         with self._lock:
             self._advance()
-            q = servo_deg_to_q(self.position_deg, self.profile)
+            if self.servo_mode:
+                q = servo_deg_to_q(self.position_deg, self.profile)
+            else:
+                q = tuple(self.position_q)
         return JointState(seq=self._state_seq.next(), t=self.clock.now(), q=q, measured=True)
 
     def is_settled(self) -> bool:
-        """True when every servo has reached its commanded angle."""
+        """True when every joint has reached its command."""
         with self._lock:
             self._advance()
-            return all(abs(p - t) < 0.5 for p, t in zip(self.position_deg, self.target_deg))
+            if self.servo_mode:
+                return all(abs(p - t) < 0.5 for p, t in zip(self.position_deg, self.target_deg))
+            return all(abs(p - t) <= self.SETTLED_TOL for p, t in zip(self.position_q, self.target_q))
+
+    def _on_estop(self) -> None:
+        # freeze where the joints are now, mid-move included (as the v2 board does)
+        with self._lock:
+            self._advance()
+            if self.servo_mode:
+                self.target_deg = list(self.position_deg)
+            else:
+                self.target_q = list(self.position_q)
+
+    def _estop_text(self) -> str:
+        return "E-STOP: simulated arm frozen; re-arm to resume"
+
+
+def _errno_of(exc: Exception) -> Optional[int]:
+    """The OS error number behind a pyserial/OS error (pyserial often keeps it in the text only)."""
+    code = getattr(exc, "errno", None)
+    if isinstance(code, int):
+        return code
+    match = re.search(r"\[errno (\d+)\]", str(exc).lower())
+    return int(match.group(1)) if match else None
 
 
 def explain_serial_error(url: str, exc: Exception) -> str:
-    """Turn a pyserial/OS error into a sentence that says what to do."""
+    """Turn a pyserial/OS error into a sentence that says what happened and what to do."""
     text = str(exc)
     low = text.lower()
-    if "permission denied" in low or "errno 13" in low:
+    code = _errno_of(exc)
+    if code == errno.EACCES or "permission denied" in low or "access is denied" in low:
         return f"{url}: permission denied — add your user to the 'dialout' group and log in again"
-    if "no such file" in low or "errno 2" in low or "could not open port" in low and "filenotfound" in low:
-        return f"{url}: no such port — is the board plugged in? Valid ports look like /dev/ttyACM0, /dev/ttyUSB0 or COM3"
-    if "busy" in low or "errno 16" in low:
+    if code == errno.ENOENT or "no such file" in low or "filenotfounderror" in low:
+        return (f"{url}: no such port — is the board plugged in? Valid ports look like "
+                "/dev/ttyACM0, /dev/ttyUSB0, /dev/serial/by-id/… or COM3")
+    if (code in (errno.EBUSY, errno.EAGAIN) or "busy" in low or "exclusively lock" in low
+            or "being used by another" in low):
         return f"{url}: port busy — close the other program using it (serial monitor, another deskarm)"
+    if code == errno.ENOTTY or "inappropriate ioctl" in low:
+        return f"{url}: not a serial port — choose the board's port (e.g. /dev/ttyACM0)"
+    if "write timeout" in low:
+        return (f"{url}: write timed out — the port accepts no data (wrong port, or the board "
+                "is hung: press its reset button)")
+    if (code in (errno.EIO, errno.ENXIO, errno.ENODEV, errno.EBADF) or "disconnected" in low
+            or "device reports" in low or "port not open" in low or "attempting to use a port" in low):
+        return f"{url}: the device went away (unplugged?) — plug it back in; deskarm reconnects by itself"
     return f"{url}: {text or type(exc).__name__}"
 
 
@@ -238,24 +377,57 @@ class SerialV1Bridge(MotorBridge):
             return self._port.read(self._port.in_waiting or 0)
 
 
-def parse_bridge_url(url: str) -> str:
-    """'sim' or 'serial'; ValueError naming the value and the valid forms."""
+_SERIAL_URL_PREFIXES = ("/dev/", "COM", "\\\\.\\COM", "loop://", "socket://", "rfc2217://",
+                        "spy://", "hwgrep://", "alt://", "cp2110://")
+V1_PREFIX = "v1:"  # explicit protocol v1 (the default for a plain port)
+V2_PREFIX = "v2:"  # protocol v2: deskarm firmware only (see the module docstring)
+
+
+def _is_serial_port_url(port: str) -> bool:
+    if port.startswith(_SERIAL_URL_PREFIXES) or (port.startswith("/") and "tty" in port):
+        return True
+    # any other typed path to a character device, e.g. a symlink a test or udev made to a pty
+    try:
+        return port.startswith("/") and stat.S_ISCHR(os.stat(port).st_mode)
+    except OSError:
+        return False
+
+
+def split_bridge_url(url: str) -> tuple[str, str]:
+    """``(protocol, port)``: ('sim', 'sim://'), ('v1', '/dev/ttyACM0') or ('v2', '/dev/ttyACM0').
+
+    A plain port means v1, as it always did; ``v1:`` says so explicitly, ``v2:`` chooses v2.
+    ValueError names the value and the valid forms.
+    """
     url = (url or "sim://").strip()
     if url in ("sim", "sim://"):
-        return "sim"
-    if url.startswith(("/dev/", "COM", "loop://", "socket://", "rfc2217://", "spy://", "hwgrep://")) or (
-        url.startswith("/") and "tty" in url
-    ):
-        return "serial"
+        return "sim", "sim://"
+    protocol = "v1"
+    port = url
+    low = url.lower()
+    if low.startswith((V1_PREFIX, V2_PREFIX)):
+        protocol, port = low[:2], url[3:].strip()
+    if port and _is_serial_port_url(port):
+        return protocol, port
     raise ValueError(f"unknown --bridge value {url!r}; valid: {BRIDGE_CHOICES}")
+
+
+def parse_bridge_url(url: str) -> str:
+    """'sim', 'serial' (protocol v1) or 'serial-v2'; ValueError naming the value and the valid forms."""
+    protocol, _ = split_bridge_url(url)
+    return {"sim": "sim", "v1": "serial", "v2": "serial-v2"}[protocol]
 
 
 def open_bridge(url: str, profile, clock=None) -> MotorBridge:
     """The bridge named by ``url`` (not yet connected)."""
-    kind = parse_bridge_url(url)
-    if kind == "sim":
+    protocol, port = split_bridge_url(url)
+    if protocol == "sim":
         return SimServoArm(profile, clock=clock)
-    return SerialV1Bridge(url, profile, clock=clock)
+    if protocol == "v2":
+        from core.bridge_v2 import SerialV2Bridge  # imports this module: import late
+
+        return SerialV2Bridge(url, profile, clock=clock)
+    return SerialV1Bridge(port, profile, clock=clock)
 
 
 def is_finite_q(q: Sequence[float]) -> bool:

@@ -1,0 +1,61 @@
+"""The bridge QThread: reconnects with backoff after failures and shows the state."""
+import pytest
+
+from app.workers import BridgeWorker, Latest
+from core.bridge import BridgeError, SimServoArm
+from core.session import DeskSession, SessionOptions
+
+
+class FlakyArm(SimServoArm):
+    """A simulated arm whose first ``failures`` connects fail like an unplugged board."""
+
+    def __init__(self, profile, failures):
+        super().__init__(profile)
+        self.failures = failures
+        self.attempts = 0
+
+    def connect(self):
+        self.attempts += 1
+        if self.attempts <= self.failures:
+            raise BridgeError("/dev/ttyACM0: no such port — is the board plugged in?")
+        super().connect()
+
+
+@pytest.fixture
+def session():
+    s = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
+    yield s
+    s.close()
+
+
+def test_reconnects_with_backoff_and_reports_each_state(qtbot, session):
+    session.bridge = FlakyArm(session.profile, failures=2)
+    worker = BridgeWorker(session, Latest(), Latest())
+    statuses = []
+    worker.sigStatus.connect(statuses.append)
+    worker.start()
+    try:
+        with qtbot.waitSignal(worker.sigStatus, timeout=5000, check_params_cb=lambda st: st.connected):
+            pass
+    finally:
+        worker.stop()
+    assert session.bridge.attempts == 3
+    assert any(not st.connected and "plugged in" in st.message for st in statuses)
+    assert worker.isFinished()
+
+
+def test_switching_to_an_unfit_bridge_keeps_the_working_one(qtbot, session):
+    worker = BridgeWorker(session, Latest(), Latest())
+    session.bridge.connect()
+    before = session.bridge
+    worker.start()
+    try:
+        worker.request_bridge("v2:loop://")  # a v2 board must answer; loop:// cannot
+        with qtbot.waitSignal(worker.sigStatus, timeout=5000,
+                              check_params_cb=lambda st: "could not switch" in st.message):
+            pass
+    finally:
+        worker.stop()
+    assert worker.isFinished()
+    assert session.bridge is before and before.is_connected
+    assert "no reply" in before.message and "still on sim://" in before.message
