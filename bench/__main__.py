@@ -30,6 +30,9 @@ def collect(quick: bool = False) -> list[dict]:
         rows += bench_render.rows(20 if quick else 200)
     except ImportError as exc:  # pragma: no cover
         print(f"bench: render benchmark unavailable: {exc}", file=sys.stderr)
+    from bench import bench_calibration
+
+    rows += bench_calibration.rows(quick)
     from bench import bench_serial
 
     rows += bench_serial.rows(quick)

@@ -9,7 +9,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Mapping, Optional, Union
 
 import cv2
 import numpy as np
@@ -102,9 +102,18 @@ def _skew(v: np.ndarray) -> np.ndarray:
 _MATRIX_KEYS = ("M1", "D1", "M2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q")
 
 
-def save_calibration(path: str | os.PathLike, calib: StereoCalibration) -> Path:
-    """Write ``calib`` as one YAML file with the keys of OpenCV's stereo_calib sample."""
+def save_calibration(path: str | os.PathLike, calib: StereoCalibration,
+                     extra: Optional[Mapping[str, Union[int, float, str]]] = None) -> Path:
+    """Write ``calib`` as one YAML file with the keys of OpenCV's stereo_calib sample.
+
+    ``extra`` adds scalar keys (e.g. rms_left, pairs_used, board) that the loader ignores.
+    """
     path = Path(path)
+    for key in extra or {}:
+        if key in _MATRIX_KEYS or key in ("image_width", "image_height", "rms_stereo", "epipolar_error_px"):
+            raise ValueError(f"extra key {key!r} would overwrite a calibration key")
+        if not key.isidentifier():
+            raise ValueError(f"extra key {key!r} is not a valid YAML/FileStorage name")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.yaml")
     fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
@@ -115,6 +124,8 @@ def save_calibration(path: str | os.PathLike, calib: StereoCalibration) -> Path:
         fs.write("image_height", int(calib.image_size[1]))
         fs.write("rms_stereo", float(calib.rms_stereo))
         fs.write("epipolar_error_px", float(calib.epipolar_error_px))
+        for key, value in (extra or {}).items():
+            fs.write(key, value if isinstance(value, str) else float(value) if isinstance(value, float) else int(value))
     finally:
         fs.release()
     os.replace(tmp, path)  # never leave a half-written calibration behind
@@ -200,3 +211,68 @@ def load_calibration(
         T=values["T"].reshape(3, 1), image_size=size, rms_stereo=float(rms),
         epipolar_error_px=float(epi), source=str(path), notes=tuple(notes),
     )
+
+
+def ros_camera_info_yaml(calib: StereoCalibration, side: str, camera_name: str = "") -> str:
+    """One camera of the pair as a ROS ``camera_info`` YAML (camera_calibration_parsers format):
+    K, D (plumb_bob, or rational_polynomial for 8 coefficients), the rectifying R and projection P."""
+    if side not in ("left", "right"):
+        raise ValueError(f"side {side!r}; valid: left, right")
+    M, D, R, P = ((calib.M1, calib.D1, calib.R1, calib.P1) if side == "left"
+                  else (calib.M2, calib.D2, calib.R2, calib.P2))
+    d = np.asarray(D, np.float64).reshape(-1)
+    if d.size == 4:
+        d = np.append(d, 0.0)
+    model = "plumb_bob" if d.size == 5 else "rational_polynomial"
+    if d.size > 8:  # ROS has no thin-prism/tilted model: keep the rational part
+        d = d[:8]
+
+    def mat(name: str, m: np.ndarray) -> str:
+        m = np.asarray(m, np.float64)
+        rows, cols = (1, m.size) if m.ndim == 1 else m.shape
+        data = ", ".join(f"{v:.10g}" for v in m.reshape(-1))
+        return f"{name}:\n  rows: {rows}\n  cols: {cols}\n  data: [{data}]\n"
+
+    w, h = calib.image_size
+    return (f"image_width: {w}\nimage_height: {h}\ncamera_name: {camera_name or side}\n"
+            + mat("camera_matrix", M) + f"distortion_model: {model}\n" + mat("distortion_coefficients", d)
+            + mat("rectification_matrix", R) + mat("projection_matrix", P))
+
+
+def export_ros_camera_info(calib: StereoCalibration, folder: str | os.PathLike,
+                           names: tuple[str, str] = ("left", "right")) -> list[Path]:
+    """Write ``left.yaml`` and ``right.yaml`` (ROS camera_info) into ``folder``; returns the paths.
+
+    The right camera's P carries Tx = −fx'·baseline (m), as ROS stereo_image_proc expects.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for side, name in zip(("left", "right"), names):
+        path = folder / f"{name}.yaml"
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(ros_camera_info_yaml(calib, side, name))
+        os.replace(tmp, path)
+        out.append(path)
+    return out
+
+
+INSTALLED_NAME = "calibration.yaml"
+PREVIOUS_NAME = "calibration.previous.yaml"
+
+
+def installed_calibration_path() -> Path:
+    """Where the app looks for the stereo calibration at start (``<config>/calibration.yaml``)."""
+    from core.session import user_dir  # late: core.session imports this module
+
+    return user_dir("config") / INSTALLED_NAME
+
+
+def install_calibration(calib: StereoCalibration,
+                        extra: Optional[Mapping[str, Union[int, float, str]]] = None) -> Path:
+    """Make ``calib`` the app's calibration; the one it replaces is kept as calibration.previous.yaml."""
+    target = installed_calibration_path()
+    if target.exists():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(target, target.with_name(PREVIOUS_NAME))
+    return save_calibration(target, calib, extra)

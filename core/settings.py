@@ -82,6 +82,40 @@ class SgbmParams:
         return p1, max(p2, p1 + 1)
 
 
+STEREO_MATCHERS = ("SGBM", "BM")
+BM_PREFILTERS = ("XSOBEL", "NORMALIZED_RESPONSE")
+
+
+@dataclass(frozen=True)
+class StereoMatchParams:
+    """Which matcher computes disparity and what surrounds it; the block-matching parameters both
+    matchers share (disparities, block size, uniqueness, speckle, …) stay in :class:`SgbmParams`."""
+
+    matcher: str = "SGBM"  # SGBM (its mode from SgbmParams.mode) or BM (block matching, ~3x faster)
+    bm_prefilter: str = "XSOBEL"  # BM pre-filter: XSOBEL or NORMALIZED_RESPONSE
+    bm_prefilter_size: int = 9  # BM normalized-response window (px), odd, 5 … 255
+    bm_texture_threshold: int = 10  # BM: minimum local texture for a match, 0 … 1000
+    wls: bool = False  # edge-aware WLS filter (a right-view match + filter, ~+60 % time)
+    wls_lambda: float = 1000.0  # WLS smoothness, 100 … 20000 (500–2000 suit the simulated desk)
+    wls_sigma: float = 0.9  # WLS colour sensitivity, 0.1 … 5.0 (0.8–1.0 suit the simulated desk)
+    half_resolution: bool = False  # match at half size and scale back (~4x faster, for the Raspberry Pi)
+
+    def __post_init__(self) -> None:
+        if self.matcher not in STEREO_MATCHERS:
+            raise SettingsError(f"stereo.matcher = {self.matcher!r}; allowed: {', '.join(STEREO_MATCHERS)}")
+        if self.bm_prefilter not in BM_PREFILTERS:
+            raise SettingsError(f"stereo.bm_prefilter = {self.bm_prefilter!r}; allowed: {', '.join(BM_PREFILTERS)}")
+        check_range("stereo", "bm_prefilter_size", self.bm_prefilter_size, 5, 255)
+        if self.bm_prefilter_size % 2 == 0:
+            raise SettingsError(f"stereo.bm_prefilter_size = {self.bm_prefilter_size} must be odd")
+        check_range("stereo", "bm_texture_threshold", self.bm_texture_threshold, 0, 1000)
+        check_range("stereo", "wls_lambda", self.wls_lambda, 100.0, 20000.0)
+        check_range("stereo", "wls_sigma", self.wls_sigma, 0.1, 5.0)
+        for name in ("wls", "half_resolution"):
+            if not isinstance(getattr(self, name), bool):
+                raise SettingsError(f"stereo.{name} = {getattr(self, name)!r} must be true or false")
+
+
 @dataclass(frozen=True)
 class LissajousParams:
     """Lissajous trajectory: p(t) = centre + amplitude · sin(2π·f·t + phase), per axis."""
