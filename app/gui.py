@@ -193,8 +193,12 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(str)
     def on_camera_error(self, message: str) -> None:
-        self._camera_error = message
-        self.banner.show_message(f"camera lost — {message}", "error")
+        """A camera problem (banner, retrying) or, with "", the camera is back."""
+        self._camera_error = message or None
+        if message:
+            self.banner.show_message(f"camera lost — {message} — retrying", "error")
+        else:
+            self._restore_banner()
 
     @QtCore.Slot(object, object)
     def on_command(self, command, goal) -> None:

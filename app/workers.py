@@ -6,7 +6,7 @@ value through a ``Latest`` slot (no unbounded queues). Every worker stops and jo
 
 Signals (all emitted from the worker's own thread, received queued in the GUI thread):
 - PerceptionWorker.sigResult(PerceptionResult) — one per camera frame
-- PerceptionWorker.sigError(str) — camera stopped delivering frames
+- PerceptionWorker.sigError(str) — camera stopped delivering frames ("" once frames are back)
 - ControlWorker.sigCommand(JointCommand, Goal) — one per control tick that produced a command
 - BridgeWorker.sigState(JointState) — after each write (and at 10 Hz while idle)
 - BridgeWorker.sigStatus(BridgeStatus) — connection state, about 2 Hz
@@ -109,7 +109,7 @@ class PerceptionWorker(_LoopThread):
         self._want_disparity = threading.Event()
         self._settings_lock = threading.Lock()
         self._pending_settings = None
-        self._error_reported = False
+        self._error_reported = ""  # the camera problem last reported ("" = none)
 
     def set_disparity_enabled(self, enabled: bool) -> None:
         if enabled:
@@ -135,11 +135,15 @@ class PerceptionWorker(_LoopThread):
             s.camera.set_settings(settings)
         frame = s.camera.read()
         if frame is None:
-            if not s.camera.is_connected and self.running and not self._error_reported:
-                self._error_reported = True
-                self.sigError.emit(s.camera.status_message or f"{s.camera.name}: no frames")
+            if not s.camera.is_connected and self.running:
+                message = s.camera.status_message or f"{s.camera.name}: no frames"
+                if message != self._error_reported:  # report each new state once
+                    self._error_reported = message
+                    self.sigError.emit(message)
             return
-        self._error_reported = False
+        if self._error_reported:
+            self._error_reported = ""
+            self.sigError.emit("")  # frames again: the camera is back
         result = s.perception.process(frame)
         extra = {}
         if self._want_disparity.is_set():

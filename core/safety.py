@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from typing import Optional, Sequence, Union
 
-from .robot_profile import SERVO_MAX_DEG, SERVO_MIN_DEG, RobotProfile
+from .robot_profile import SERVO_MAX_DEG, SERVO_MIN_DEG, ProfileError, RobotProfile
 
 LIMIT_TOL_RAD = 1e-9  # is_within_limits accepts this much rounding beyond a limit
 
@@ -34,7 +34,8 @@ def _check_len(q: Sequence[float], profile: RobotProfile) -> None:
 
 
 def clamp_to_limits(q: Sequence[float], profile: RobotProfile) -> tuple[tuple[float, ...], bool]:
-    """Clamp each joint value (rad) into the profile's limits; return (q_clamped, changed).
+    """Clamp each joint value (rad, or m for prismatic joints) into the profile's limits;
+    return (q_clamped, changed). Works for every profile, servo or not.
 
     NaN becomes the middle of the joint's range (and counts as a change).
     """
@@ -106,9 +107,15 @@ def to_servo_bytes_deg(q: Sequence[float], profile: RobotProfile) -> tuple[int, 
 
     The joint value is clamped to its limits first (NaN → middle of the range), converted
     through offset and direction, rounded half up, and clamped again so rounding can never
-    leave the range. These are the v1 protocol's angle bytes (0x00–0xB4).
+    leave the range. These are the v1 protocol's angle bytes (0x00–0xB4). Raises ProfileError
+    for a profile without servos (umi_rtx, URDF arms).
     """
     _check_len(q, profile)
+    if not profile.has_servos:
+        raise ProfileError(
+            f"profile {profile.name!r} has no hobby servos (its joint limits are in rad or m):"
+            " servo angles and the v1 protocol apply only to servo profiles such as desk_rrr or delta"
+        )
     q_safe, _ = clamp_to_limits(q, profile)
     out = []
     for v, joint in zip(q_safe, profile.joints):

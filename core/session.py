@@ -123,14 +123,31 @@ def load_session_calibration(camera: CameraSource, path: Optional[str]) -> tuple
         save_calibration(cache, own)
         return load_calibration(cache, expected_size=own.image_size), ""
     candidate = Path(path) if path else user_dir("config") / "calibration.yaml"
+    size = camera_image_size(camera)
     try:
-        return load_calibration(candidate), ""
+        calib = load_calibration(candidate, expected_size=size)
+        return calib, "; ".join(calib.notes)
     except CalibrationError as exc:
-        from core.sim_rig import SimRig
+        from core.sim_rig import SimRig, SimRigConfig
 
-        nominal = SimRig().calibration()
+        w, h = size or (640, 480)
+        nominal = SimRig(SimRigConfig(width=w, height=h, focal_px=430.0 * w / 640.0)).calibration()
         why = str(exc) if path else "no stereo calibration yet — run `deskarm calibrate`"
         return nominal, f"UNCALIBRATED: nominal parameters, 3D positions approximate ({why})"
+
+
+def camera_image_size(camera: CameraSource) -> Optional[tuple[int, int]]:
+    """(width, height) the camera delivers, when it can tell (webcams after connect)."""
+    mode = getattr(camera, "actual_mode", None)
+    try:
+        mode = mode() if callable(mode) else mode
+    except Exception:  # a device that cannot report its mode is simply unknown
+        return None
+    if mode:
+        w, h = int(mode[0][0]), int(mode[0][1])
+        if w > 0 and h > 0:
+            return (w, h)
+    return None
 
 
 def chain_points(session: DeskSession, q) -> np.ndarray:
