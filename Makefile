@@ -33,7 +33,16 @@ test: $(STAMP) firmware-test
 firmware-test:
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware test; fi
 
-bench: $(STAMP)
+# ikpy (the IK baseline) is only needed for the bench
+$(VENV)/.bench-installed: $(STAMP)
+	@if $(VENV)/bin/uv --version >/dev/null 2>&1; then \
+		VIRTUAL_ENV=$(VENV) $(VENV)/bin/uv pip install -q -e '.[test,bench]'; \
+	else \
+		$(PY) -m pip install -q -e '.[test,bench]'; \
+	fi
+	@touch $@
+
+bench: $(VENV)/.bench-installed
 	QT_QPA_PLATFORM=offscreen $(PY) -m bench
 
 clean:

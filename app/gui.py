@@ -102,10 +102,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.camera_panel = CameraSettingsPanel()
         self.sgbm_panel = SgbmPanel()
         self.joints = JointReadout()
-        self.joints.set_joints(
-            s.profile.joint_names, [j.servo_min_deg for j in s.profile.joints],
-            [j.servo_max_deg for j in s.profile.joints],
-        )
+        self.joints.set_joints(s.profile.joint_names, *joint_display_limits(s.profile))
         self.bridge_picker = BridgePicker(list_port_choices)
         self.bridge_picker.sigConnectRequested.connect(self.on_bridge_requested)
         robot_page = QtWidgets.QWidget()
@@ -343,8 +340,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.target_panel.set_reach_status(self._preview_note, False)
             else:
                 self.target_panel.set_reach_status(f"on target{' · ' + goal.note if goal.note else ''}", True)
-        cmd_deg = s.profile.to_servo_deg(cmd.q) if cmd is not None else None
-        meas_deg = s.profile.to_servo_deg(self._state.q) if self._state is not None else None
+        cmd_deg = joint_display_values(s.profile, cmd.q) if cmd is not None else None
+        meas_deg = joint_display_values(s.profile, self._state.q) if self._state is not None else None
         self.joints.set_values(cmd_deg, meas_deg)
         b = self._bridge_status
         bridge_text = "—" if b is None else (f"{b.url} ✓ {b.commands_sent} cmds" if b.connected else f"{b.url} ✗ {b.message}")
@@ -354,6 +351,20 @@ class MainWindow(QtWidgets.QMainWindow):
             self.bridge_picker.set_status(f"{b.url}: {'connected' if b.connected else 'not connected'}"
                                           f"{' — ' + b.message if b.message else ''}", b.connected)
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
+
+
+def joint_display_limits(profile) -> tuple[list[float], list[float]]:
+    """Joint limits as people read them: servo degrees for servo arms, else deg or mm."""
+    if getattr(profile, "has_servos", True):
+        return [j.servo_min_deg for j in profile.joints], [j.servo_max_deg for j in profile.joints]
+    return [j.to_display(j.q_min) for j in profile.joints], [j.to_display(j.q_max) for j in profile.joints]
+
+
+def joint_display_values(profile, q) -> list[float]:
+    """Joint values as people read them (see joint_display_limits)."""
+    if getattr(profile, "has_servos", True):
+        return list(profile.to_servo_deg(q))
+    return list(profile.to_display(q))
 
 
 def list_port_choices() -> list[tuple[str, str]]:

@@ -78,6 +78,17 @@ def servo_deg_outside_limits(servo_deg, profile) -> bool:
     return False
 
 
+def command_outside_limits(sent, cmd, bridge, profile) -> bool:
+    """Did what the bridge sent leave a joint's limits? Servo arms: the servo degrees written;
+    other arms: the joint values the bridge commanded."""
+    if getattr(profile, "has_servos", True):
+        return servo_deg_outside_limits(sent, profile)
+    from core.safety import is_within_limits
+
+    q_sent = getattr(bridge, "last_sent_q", None) or cmd.q
+    return not is_within_limits(q_sent, profile)
+
+
 class HeadlessRunner:
     """Runs a DeskSession for ``duration`` seconds and collects RunMetrics."""
 
@@ -152,7 +163,7 @@ class HeadlessRunner:
         sent = s.bridge.send(cmd)
         ctrl_wall = time.perf_counter() - w0
         m.commands_sent += 1
-        if servo_deg_outside_limits(sent, s.profile):
+        if command_outside_limits(sent, cmd, s.bridge, s.profile):
             m.limit_violations += 1
         if not cmd.reachable:
             m.unreachable_commands += 1

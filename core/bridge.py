@@ -327,6 +327,11 @@ class SerialV1Bridge(MotorBridge):
         super().__init__(url, profile, clock)
         if len(profile.joints) > 3:
             raise BridgeError(f"protocol v1 drives 3 joints; profile {profile.name!r} has {len(profile.joints)}")
+        if not getattr(profile, "has_servos", True):
+            raise BridgeError(
+                f"protocol v1 drives hobby servos; profile {profile.name!r} has no servo mapping "
+                f"(servo_min_deg/offset_deg/direction) — use sim:// or add the servo fields"
+            )
         self._factory = serial_factory
         self._port = None
         self._lock = threading.Lock()
