@@ -110,6 +110,8 @@ class Goal:
     source_t: Optional[float] = None  # capture time of the frame the goal came from
     valid: bool = True  # False: marker lost — hold position
     note: str = ""
+    orientation_rpy: Optional[tuple[float, float, float]] = None  # tool roll, pitch, yaw (rad), 6-DOF arms
+    grip_m: Optional[float] = None  # gripper opening per finger (m), arms with a gripper
 
 
 @dataclass(frozen=True)

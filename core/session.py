@@ -94,7 +94,8 @@ class DeskSession:
             base_T_camera = SimRig().base_T_camera  # nominal mount until a hand-eye step exists
         perception = StereoMarkerPerception(calibration, base_T_camera, marker_ids=options.marker_ids)
         mode = TargetMode.CUPS if options.scenario == "cups" else TargetMode.FOLLOW
-        targeter = Targeter(clock, mode=mode, follow_id=options.marker_ids[0], cup_ids=options.marker_ids[:2])
+        targeter = Targeter(clock, mode=mode, follow_id=options.marker_ids[0], cup_ids=options.marker_ids[:2],
+                            lissajous=lissajous_for(profile, kinematics))
         controller = ArmController(profile, kinematics)
         bridge = open_bridge(options.bridge, profile, clock=clock)
         return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
@@ -109,6 +110,20 @@ class DeskSession:
             self.camera.disconnect()
         finally:
             self.bridge.disconnect()
+
+
+def lissajous_for(profile, kinematics):
+    """The Lissajous defaults of an arm: ours for the desk arm, the original's (scaled) for others."""
+    from core.settings import LissajousParams
+
+    if profile.name == "desk_rrr":
+        return LissajousParams()
+    from core.trajectory import default_lissajous
+
+    try:
+        return default_lissajous(kinematics, profile.name)
+    except ValueError:  # no scaled curve fits this arm: the desk defaults, flagged when out of reach
+        return LissajousParams()
 
 
 def load_session_calibration(camera: CameraSource, path: Optional[str]) -> tuple[StereoCalibration, str]:

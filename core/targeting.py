@@ -77,6 +77,8 @@ class Targeter:
         self._lock = threading.Lock()
         self.mode = TargetMode(mode)
         self.manual_target = as_point(manual_target)
+        self.manual_rpy: Optional[tuple[float, float, float]] = None  # 6-DOF arms: tool orientation
+        self.manual_grip_m: Optional[float] = None
         self.follow_id = int(follow_id)
         self.lissajous = lissajous or LissajousParams()
         self.lissajous_running = False
@@ -95,6 +97,13 @@ class Targeter:
     def set_manual_target(self, base_p) -> None:
         with self._lock:
             self.manual_target = as_point(base_p)
+
+    def set_manual_pose(self, base_p, rpy=None, grip_m: Optional[float] = None) -> None:
+        """Manual target with a tool orientation (roll, pitch, yaw in rad) and a grip (m)."""
+        with self._lock:
+            self.manual_target = as_point(base_p)
+            self.manual_rpy = None if rpy is None else as_point(rpy)
+            self.manual_grip_m = None if grip_m is None else float(grip_m)
 
     def set_follow_id(self, marker_id: int) -> None:
         with self._lock:
@@ -126,7 +135,8 @@ class Targeter:
             t = self.clock.now()
             source_t = result.t if result is not None else None
             if mode is TargetMode.MANUAL:
-                return Goal(self._seq.next(), t, self.manual_target, mode, source_t)
+                return Goal(self._seq.next(), t, self.manual_target, mode, source_t,
+                            orientation_rpy=self.manual_rpy, grip_m=self.manual_grip_m)
             if mode is TargetMode.LISSAJOUS:
                 p = self.lissajous.point(self.lissajous_time())
                 return Goal(self._seq.next(), t, as_point(p), mode, source_t)

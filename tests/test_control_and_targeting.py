@@ -114,3 +114,28 @@ def test_no_goal_sequence_commands_a_joint_outside_its_limits(targets, q_start):
         assert cmd is not None
         assert all(math.isfinite(v) for v in cmd.q)
         assert is_within_limits(cmd.q, PROFILE)
+
+
+def test_pose_goal_uses_the_pose_solver_for_6dof_arms():
+    from core.control import pose_matrix
+
+    profile = load_profile("umi_rtx")
+    kin = build_kinematics(profile)
+    q_true = tuple((lo + hi) / 2 + 0.1 for lo, hi in zip(profile.q_min, profile.q_max))
+    T = np.asarray(kin.fk_pose(q_true))
+    import pinocchio as pin
+
+    rpy = pin.rpy.matrixToRpy(T[:3, :3])
+    np.testing.assert_allclose(pose_matrix(T[:3, 3], rpy), T, atol=1e-12)
+    c = ArmController(profile, kin)
+    c.max_step_rad = tuple(10.0 for _ in c.max_step_rad)  # one tick, no rate limit, for the check
+    cmd = c.step(Goal(1, 0.0, tuple(T[:3, 3]), TargetMode.MANUAL, orientation_rpy=tuple(rpy)), profile.q_home, 0.0)
+    np.testing.assert_allclose(np.asarray(kin.fk_pose(cmd.q)), T, atol=1e-5)
+    assert is_within_limits(cmd.q, profile)
+
+
+def test_manual_pose_reaches_the_goal():
+    t = Targeter(SimClock())
+    t.set_manual_pose((0.1, 0.2, 0.3), (0.0, 0.5, 1.0), 0.02)
+    g = t.update(None)
+    assert g.orientation_rpy == (0.0, 0.5, 1.0) and g.grip_m == 0.02
