@@ -2,6 +2,11 @@
 
 The GUI thread only stores the newest worker results in slots and redraws from them at display
 rate (a single-shot timer re-armed after each draw), so slow frames never pile up.
+
+The Camera tab opens the calibration wizard (its own worker, fed with the live frames); a saved
+calibration is handed to the perception worker, which switches perception, disparity and the
+calibration health monitor to it without a restart. The Stereo tab's presets are read and
+written here (widgets never touch files), per camera pair.
 """
 from __future__ import annotations
 
@@ -13,19 +18,26 @@ from typing import Optional
 import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from app.calibration_worker import CalibrationController
 from app.workers import WorkerSet
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
+from core.stereo import PresetError, delete_preset, disparity_legend, list_presets, load_preset, save_preset
+from widgets._style import TOUCH_PX, touch_button
 from widgets.arm_twin import ArmTwin
-from widgets.camera_controls import CameraSettingsPanel, SgbmPanel
+from widgets.camera_controls import CameraSettingsPanel
 from widgets.bridge_picker import BridgePicker
 from widgets.camera_view import CameraView, MarkerOverlay
+from widgets.device_controls import DeviceControlsPanel
 from widgets.estop import EStopButton
+from widgets.stereo_panel import StereoPanel
 from widgets.joint_readout import JointReadout
 from widgets.status import Banner, StatusBarItems
 from widgets.target_panel import TargetPanel
 
 REDRAW_INTERVAL_MS = 33  # ~30 Hz display rate
+NOTE_SHOW_MS = 15_000  # how long a one-off note (e.g. "new calibration in use") stays in the banner
+LEGEND_TICKS = 5
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -43,11 +55,28 @@ class MainWindow(QtWidgets.QMainWindow):
         self._frame_times: list[float] = []
         self._latency_ms = 0.0
         self._camera_error: Optional[str] = None
+        self._health_message = ""
+        self._note = ""
+        self._probe: Optional[tuple[float, float]] = None  # tapped pixel of the disparity map
+        self.depth_sample = None  # DepthSample at the probe, for tests and the readout
         self._dirty = False
+        self.calibration_controller: Optional[CalibrationController] = None
+        self._note_timer = QtCore.QTimer(self)
+        self._note_timer.setSingleShot(True)
+        self._note_timer.timeout.connect(self._clear_note)
         self._build()
         self.workers = WorkerSet(session, self)
-        self.workers.perception.sigResult.connect(self.on_result)
-        self.workers.perception.sigError.connect(self.on_camera_error)
+        p = self.workers.perception
+        p.sigResult.connect(self.on_result)
+        p.sigError.connect(self.on_camera_error)
+        p.sigHealth.connect(self.on_health)
+        p.sigControls.connect(self.on_controls)
+        p.sigControlApplied.connect(self.on_control_applied)
+        p.sigControlError.connect(self.on_control_error)
+        p.sigCalibrationApplied.connect(self.on_calibration_applied)
+        self._load_initial_preset()
+        self._update_legend()
+        self._update_calibration_label()
         self.workers.control.sigCommand.connect(self.on_command)
         self.workers.bridge.sigState.connect(self.on_state)
         self.workers.bridge.sigStatus.connect(self.on_bridge_status)
@@ -86,6 +115,7 @@ class MainWindow(QtWidgets.QMainWindow):
             cams.addWidget(v)
             v.sigDisplayModeChanged.connect(self.on_display_mode)
             v.sigMarkerClicked.connect(self.on_marker_clicked)
+            v.sigClicked.connect(self.on_view_clicked)
         left_layout.addLayout(cams, 3)
         self.twin = ArmTwin()
         reach = s.kinematics.workspace_radius_range() if hasattr(s.kinematics, "workspace_radius_range") else (0.0, 0.25)
@@ -99,8 +129,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.tabs.tabBar().setExpanding(True)
         self.tabs.setStyleSheet("QTabBar::tab { min-height: 40px; min-width: 60px; padding: 0 8px; }")
         self.target_panel = TargetPanel()
-        self.camera_panel = CameraSettingsPanel()
-        self.sgbm_panel = SgbmPanel()
+        self.camera_page = self._build_camera_page()
+        self.stereo_panel = StereoPanel()
+        self.sgbm_panel = self.stereo_panel.sgbm  # the block-matching trackbars
         self.joints = JointReadout()
         self.joints.set_joints(s.profile.joint_names, *joint_display_limits(s.profile))
         self.bridge_picker = BridgePicker(list_port_choices)
@@ -111,8 +142,8 @@ class MainWindow(QtWidgets.QMainWindow):
         robot_layout.addWidget(self.joints)
         robot_layout.addWidget(self.bridge_picker)
         robot_layout.addStretch(1)
-        for widget, title in ((self.target_panel, "Target"), (self.camera_panel, "Camera"),
-                              (self.sgbm_panel, "Stereo"), (robot_page, "Robot")):
+        for widget, title in ((self.target_panel, "Target"), (self.camera_page, "Camera"),
+                              (self.stereo_panel, "Stereo"), (robot_page, "Robot")):
             area = QtWidgets.QScrollArea()
             area.setWidgetResizable(True)
             area.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
@@ -142,9 +173,45 @@ class MainWindow(QtWidgets.QMainWindow):
         tp.sigLissajousChanged.connect(self.on_lissajous)
         tp.sigLissajousRunning.connect(self.on_lissajous_running)
         tp.set_mode(s.targeter.mode.value)
-        self.camera_panel.sigSettingsChanged.connect(self.on_camera_settings)
-        self.sgbm_panel.sigParamsChanged.connect(self.on_sgbm_params)
+        sp = self.stereo_panel
+        sp.sigParamsChanged.connect(self.on_sgbm_params)
+        sp.sigMatchParamsChanged.connect(self.on_match_params)
+        sp.sigPresetSaveRequested.connect(self.on_preset_save)
+        sp.sigPresetLoadRequested.connect(self.on_preset_load)
+        sp.sigPresetDeleteRequested.connect(self.on_preset_delete)
         self._update_preview()
+
+    def _build_camera_page(self) -> QtWidgets.QWidget:
+        """Calibrate button and state, then the image controls: the simulated camera's four
+        settings, or a real camera's device controls as it reports them."""
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        layout.setContentsMargins(0, 0, 0, 0)
+        self.calibrate_button = touch_button("Calibrate cameras…")
+        self.calibrate_button.setMinimumHeight(TOUCH_PX + 12)
+        font = self.calibrate_button.font()
+        font.setBold(True)
+        self.calibrate_button.setFont(font)
+        self.calibrate_button.setToolTip("Stereo calibration with a printed chessboard or ChArUco board")
+        self.calibrate_button.clicked.connect(self.on_open_calibration)
+        layout.addWidget(self.calibrate_button)
+        self.calibration_label = QtWidgets.QLabel()
+        self.calibration_label.setWordWrap(True)
+        layout.addWidget(self.calibration_label)
+        self.camera_panel: Optional[CameraSettingsPanel] = None
+        self.device_panel: Optional[DeviceControlsPanel] = None
+        if self.session.is_simulated_camera:
+            self.camera_panel = CameraSettingsPanel()
+            self.camera_panel.sigSettingsChanged.connect(self.on_camera_settings)
+            layout.addWidget(self.camera_panel)
+        else:
+            self.device_panel = DeviceControlsPanel()
+            self.device_panel.sigControlRequested.connect(self.on_control_requested)
+            self.device_panel.sigAutoRequested.connect(self.on_auto_requested)
+            self.device_panel.sigRefreshRequested.connect(self.on_controls_refresh)
+            layout.addWidget(self.device_panel)
+        layout.addStretch(1)
+        return page
 
     def _set_workspace_outline(self) -> None:
         kin = self.session.kinematics
@@ -160,7 +227,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Give the panels the width they need (~370 px) and the views the rest."""
         super().resizeEvent(event)
         width = self.splitter.width() or event.size().width()
-        needed = max(w.minimumSizeHint().width() for w in (self.target_panel, self.camera_panel, self.sgbm_panel, self.joints, self.bridge_picker))
+        needed = max(w.minimumSizeHint().width() for w in (self.target_panel, self.camera_page, self.stereo_panel, self.joints, self.bridge_picker))
         panel = max(needed + 40, int(0.30 * width))  # + the scroll bar and frame
         panel = min(panel, max(300, width - 400), 560)
         self.splitter.setSizes([width - panel, panel])
@@ -172,6 +239,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def stop(self) -> None:
         self._redraw_timer.stop()
+        if self.calibration_controller is not None:
+            self.calibration_controller.close()  # stops and joins the wizard's worker
         self.workers.stop()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
@@ -182,6 +251,8 @@ class MainWindow(QtWidgets.QMainWindow):
     @QtCore.Slot(object)
     def on_result(self, result) -> None:
         self._result = result
+        if self.calibration_controller is not None:
+            self.calibration_controller.feed(result.frame)  # newest only; ignored while closed
         now = time.monotonic()
         self._frame_times.append(now)
         while self._frame_times and now - self._frame_times[0] > 2.0:
@@ -192,10 +263,48 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_camera_error(self, message: str) -> None:
         """A camera problem (banner, retrying) or, with "", the camera is back."""
         self._camera_error = message or None
-        if message:
-            self.banner.show_message(f"camera lost — {message} — retrying", "error")
-        else:
-            self._restore_banner()
+        if self.device_panel is not None:
+            if message:
+                self.device_panel.set_message("camera not delivering frames — the controls come back with it",
+                                              warn=True)
+            else:
+                self.device_panel.set_message("")
+        self._restore_banner()
+
+    @QtCore.Slot(object)
+    def on_health(self, status) -> None:
+        """Calibration health (HealthStatus): the drift message goes to the banner."""
+        self._health_message = (f"{status.message} (or Camera tab → Calibrate cameras…)"
+                                if status.drifted and status.message else "")
+        self._restore_banner()
+
+    @QtCore.Slot(object)
+    def on_controls(self, controls) -> None:
+        """The camera's image controls (list of CameraControl) from the perception worker."""
+        if self.device_panel is not None:
+            self.device_panel.set_controls(controls)
+
+    @QtCore.Slot(object)
+    def on_control_applied(self, control) -> None:
+        if self.device_panel is not None:
+            self.device_panel.show_applied(control)
+
+    @QtCore.Slot(str)
+    def on_control_error(self, message: str) -> None:
+        if self.device_panel is not None:
+            self.device_panel.set_message(message, warn=True)
+
+    @QtCore.Slot(str, float)
+    def on_control_requested(self, name: str, value: float) -> None:
+        self.workers.perception.request_control(name, value)
+
+    @QtCore.Slot(str, bool)
+    def on_auto_requested(self, name: str, on: bool) -> None:
+        self.workers.perception.request_auto(name, on)
+
+    @QtCore.Slot()
+    def on_controls_refresh(self) -> None:
+        self.workers.perception.request_controls()
 
     @QtCore.Slot(object, object)
     def on_command(self, command, goal) -> None:
@@ -243,21 +352,169 @@ class MainWindow(QtWidgets.QMainWindow):
     @QtCore.Slot(object)
     def on_sgbm_params(self, params) -> None:
         self.workers.perception.set_sgbm_params(params)
+        self._update_legend()
+
+    @QtCore.Slot(object)
+    def on_match_params(self, match) -> None:
+        self.workers.perception.set_match_params(match)
+
+    # --- stereo presets (per camera pair, in the user's config folder) -------------------------
+    def _load_initial_preset(self) -> None:
+        """The pair's active preset, if it has one, into the panel and the worker."""
+        pair = self.session.camera.pair_id
+        try:
+            names = list_presets(pair)
+            loaded = load_preset(pair)
+        except PresetError as exc:
+            self.stereo_panel.set_presets([])
+            self.stereo_panel.set_preset_status(str(exc), ok=False)
+            return
+        current = None
+        if loaded is not None:
+            self.stereo_panel.set_all(*loaded)
+            self.workers.perception.set_stereo_params(*loaded)
+            current = next((n for n in names if load_preset(pair, n) == loaded), None)
+        self.stereo_panel.set_presets(names, current)
+
+    @QtCore.Slot(str)
+    def on_preset_save(self, name: str) -> None:
+        pair, sp = self.session.camera.pair_id, self.stereo_panel
+        try:
+            path = save_preset(pair, sp.params(), sp.match_params(), name)
+            sp.set_presets(list_presets(pair), name)
+        except (PresetError, OSError) as exc:
+            sp.set_preset_status(str(exc), ok=False)
+            return
+        sp.set_preset_status(f"saved “{name}” for {pair} ({path.name})")
+
+    @QtCore.Slot(str)
+    def on_preset_load(self, name: str) -> None:
+        pair, sp = self.session.camera.pair_id, self.stereo_panel
+        try:
+            loaded = load_preset(pair, name)
+        except (PresetError, OSError) as exc:
+            sp.set_preset_status(str(exc), ok=False)
+            return
+        if loaded is None:
+            sp.set_preset_status(f"no preset “{name}” for {pair}", ok=False)
+            return
+        sp.set_all(*loaded)
+        self.workers.perception.set_stereo_params(*loaded)
+        self._update_legend()
+        sp.set_preset_status(f"loaded “{name}”")
+
+    @QtCore.Slot(str)
+    def on_preset_delete(self, name: str) -> None:
+        pair, sp = self.session.camera.pair_id, self.stereo_panel
+        try:
+            existed = delete_preset(pair, name)
+            sp.set_presets(list_presets(pair))
+        except (PresetError, OSError) as exc:
+            sp.set_preset_status(str(exc), ok=False)
+            return
+        sp.set_preset_status(f"deleted “{name}”" if existed else f"no preset “{name}” to delete", ok=existed)
+
+    # --- calibration ------------------------------------------------------------------------
+    @QtCore.Slot()
+    def on_open_calibration(self) -> None:
+        """Open the calibration wizard (fed with the live frames while it is open)."""
+        if self.calibration_controller is None:
+            self.calibration_controller = CalibrationController(self)
+            self.calibration_controller.sigCalibrationInstalled.connect(self.on_calibration_installed)
+        self.calibration_controller.open(self)
+
+    @QtCore.Slot(object, object)
+    def on_calibration_installed(self, path, calibration) -> None:
+        """The wizard saved a calibration: use it now (the worker switches before its next frame)."""
+        s = self.session
+        s.banners = [b for b in s.banners if not b.startswith("UNCALIBRATED") and "rescaled" not in b]
+        self.workers.perception.set_calibration(calibration)
+        self._show_note(f"new calibration in use (stereo RMS {calibration.rms_stereo:.2f} px, epipolar "
+                        f"{calibration.epipolar_error_px:.2f} px) — saved to {path}")
+
+    @QtCore.Slot(object)
+    def on_calibration_applied(self, calibration) -> None:
+        """The perception worker now uses ``calibration``."""
+        self._update_legend()
+        self._update_calibration_label()
+        self._dirty = True
+
+    def _update_calibration_label(self) -> None:
+        c = self.session.calibration
+        if any(b.startswith("UNCALIBRATED") for b in self.session.banners):
+            text = "Not calibrated: nominal parameters, 3D positions approximate."
+        elif self.session.is_simulated_camera and c.source.endswith("sim_rig_calibration.yaml"):
+            text = "Calibration: the simulated rig's exact one."
+        else:
+            text = (f"Calibration: {c.source or 'from the wizard'} · stereo RMS {c.rms_stereo:.2f} px · "
+                    f"epipolar {c.epipolar_error_px:.2f} px · baseline {c.baseline_m * 1e3:.1f} mm")
+        self.calibration_label.setText(text)
+
+    def _show_note(self, text: str) -> None:
+        self._note = text
+        self._note_timer.start(NOTE_SHOW_MS)
+        self._restore_banner()
+
+    @QtCore.Slot()
+    def _clear_note(self) -> None:
+        self._note = ""
+        self._restore_banner()
+
+    # --- disparity view: legend and depth probe ---------------------------------------------
+    def _update_legend(self) -> None:
+        """Depth marks on the disparity colour bars for the current parameters and calibration."""
+        p = self.stereo_panel.params()
+        lo, hi = max(0.0, float(p.min_disparity)), float(p.min_disparity + p.num_disparities)
+        ticks = [(t.disparity_px, f"{t.disparity_px:.0f} px\n{format_depth(t.depth_m)}")
+                 for t in disparity_legend(self.session.calibration, lo, hi, LEGEND_TICKS)]
+        for view in (self.view_left, self.view_right):
+            view.set_depth_legend(ticks)
+
+    @QtCore.Slot(float, float)
+    def on_view_clicked(self, x_px: float, y_px: float) -> None:
+        """A tap on a view in disparity mode measures the depth there (kept live until the next tap)."""
+        view = self.sender()
+        if not isinstance(view, CameraView) or view.display_mode != "disparity":
+            return
+        self._probe = (x_px, y_px)
+        self._update_probe()
+
+    def _update_probe(self) -> None:
+        r = self._result
+        if self._probe is None or r is None or r.disparity is None:
+            return
+        x, y = self._probe
+        sample = self.workers.perception.disparity.depth_at(
+            r.disparity, x, y, base_T_camera=self.session.perception.base_T_camera)
+        text, readout = depth_texts(x, y, sample)
+        for view in (self.view_left, self.view_right):
+            view.set_probe(x, y, text)
+        self.stereo_panel.set_depth_readout(readout)
+        self.depth_sample = sample
 
     @QtCore.Slot(bool)
     def on_estop(self, engaged: bool) -> None:
         """E-stop: the control worker refuses commands and the bridge stops the arm."""
         if engaged:
             self.session.controller.estop()
-            self.banner.show_message("E-STOP — the arm is stopped. Tap RE-ARM to resume.", "error")
         else:
             self.session.controller.rearm()
-            self._restore_banner()
+        self._restore_banner()
         self.workers.bridge.request_estop(engaged)
 
     def _restore_banner(self) -> None:
+        """The most important message: camera lost, e-stop, calibration drift, a note, session notes."""
         s = self.session
-        if s.banners:
+        if self._camera_error:
+            retry = "" if "retrying" in self._camera_error else " — retrying"
+            self.banner.show_message(f"camera lost — {self._camera_error}{retry}", "error")
+        elif not s.controller.armed:
+            self.banner.show_message("E-STOP — the arm is stopped. Tap RE-ARM to resume.", "error")
+        elif self._health_message:
+            self.banner.show_message(self._health_message, "warn")
+        elif self._note:
+            self.banner.show_message(self._note, "info")
+        elif s.banners:
             self.banner.show_message(" · ".join(s.banners), "warn" if "UNCALIBRATED" in " ".join(s.banners) else "info")
         else:
             self.banner.clear()
@@ -311,9 +568,16 @@ class MainWindow(QtWidgets.QMainWindow):
         r = self._result
         fps = (len(self._frame_times) - 1) / (self._frame_times[-1] - self._frame_times[0]) if len(self._frame_times) > 2 else 0.0
         if r is not None and r.frame is not None:
+            params = self.stereo_panel.params()
+            max_disparity = float(params.num_disparities + params.min_disparity)
+            if r.disparity is not None:
+                self._update_probe()
+                ms = r.timings_ms.get("disparity")
+                if ms is not None:
+                    self.stereo_panel.set_timing(f"disparity {ms:.0f} ms per frame")
             for view, img, side in ((self.view_left, r.frame.left, "left"), (self.view_right, r.frame.right, "right")):
                 if view.display_mode == "disparity" and r.disparity is not None:
-                    view.show_disparity(r.disparity, float(self.sgbm_panel.params().num_disparities + self.sgbm_panel.params().min_disparity))
+                    view.show_disparity(r.disparity, max_disparity)
                 else:
                     view.show_image(img)
                 compact = view.width() < 420  # small views: ids only, positions are in the twin
@@ -351,6 +615,28 @@ class MainWindow(QtWidgets.QMainWindow):
             self.bridge_picker.set_status(f"{b.url}: {'connected' if b.connected else 'not connected'}"
                                           f"{' — ' + b.message if b.message else ''}", b.connected)
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
+
+
+def format_depth(depth_m: float) -> str:
+    """"41 cm" below a metre, "1.25 m" above, "∞" at zero disparity."""
+    if not math.isfinite(depth_m):
+        return "∞"
+    return f"{depth_m * 100:.0f} cm" if depth_m < 1.0 else f"{depth_m:.2f} m"
+
+
+def depth_texts(x_px: float, y_px: float, sample) -> tuple[str, str]:
+    """(label on the view, line in the Stereo tab) for a DepthSample (None: nothing matched)."""
+    if sample is None:
+        return "no depth here\n(no stereo match)", f"({x_px:.0f}, {y_px:.0f}): no depth — no stereo match there"
+    text = f"{sample.depth_mm:.0f} mm"
+    where = ""
+    if sample.base_p is not None:
+        x_cm, y_cm, z_cm = (round(100.0 * v, 1) + 0.0 for v in sample.base_p)  # + 0.0: no "-0.0"
+        where = f"x {x_cm:.1f} y {y_cm:.1f} z {z_cm:.1f} cm"
+        text += "\n" + where
+    readout = (f"Depth at ({x_px:.0f}, {y_px:.0f}): {sample.depth_mm:.0f} mm (disparity "
+               f"{sample.disparity_px:.1f} px)" + (f" · robot base {where}" if where else ""))
+    return text, readout
 
 
 def joint_display_limits(profile) -> tuple[list[float], list[float]]:

@@ -7,6 +7,13 @@ value through a ``Latest`` slot (no unbounded queues). Every worker stops and jo
 Signals (all emitted from the worker's own thread, received queued in the GUI thread):
 - PerceptionWorker.sigResult(PerceptionResult) — one per camera frame
 - PerceptionWorker.sigError(str) — camera stopped delivering frames ("" once frames are back)
+- PerceptionWorker.sigHealth(HealthStatus) — the calibration health changed (drifted or back to
+  fine; while drifted at most once a second with the new numbers)
+- PerceptionWorker.sigControls(list[CameraControl]) — the camera's image controls with their
+  ranges and values, after the first frame, after a replug and on request
+- PerceptionWorker.sigControlApplied(CameraControl) — a requested control as the device took it
+  (clamped); sigControlError(str) when it refused
+- PerceptionWorker.sigCalibrationApplied(StereoCalibration) — a new calibration is in use
 - ControlWorker.sigCommand(JointCommand, Goal) — one per control tick that produced a command
 - BridgeWorker.sigState(JointState) — after each write (and at 10 Hz while idle)
 - BridgeWorker.sigStatus(BridgeStatus) — connection state, about 2 Hz
@@ -21,10 +28,15 @@ from typing import Generic, Optional, TypeVar
 from PySide6 import QtCore
 
 from core.bridge import BridgeError
+from core.calibration_health import CalibrationHealth
+from core.cameras import CameraError
 from core.messages import TargetMode
+from core.perception import StereoMarkerPerception
 from core.session import DeskSession
-from core.settings import SgbmParams
+from core.settings import SgbmParams, StereoMatchParams
 from core.stereo import DisparityComputer
+
+HEALTH_REPEAT_S = 1.0  # while drifted, the banner's numbers are refreshed at most this often
 
 T = TypeVar("T")
 
@@ -96,20 +108,37 @@ class _LoopThread(QtCore.QThread):
 
 
 class PerceptionWorker(_LoopThread):
-    """Camera -> perception (-> disparity while shown, -> ball finder in the cups game)."""
+    """Camera -> perception (-> disparity while shown, -> ball finder in the cups game).
+
+    Settings from the GUI (camera settings and controls, stereo parameters, a new calibration)
+    are left as pending requests under one lock and applied here between frames: a device may
+    block for a frame while it takes a control, and the calibration swap must not race a compute.
+    """
 
     sigResult = QtCore.Signal(object)
     sigError = QtCore.Signal(str)
+    sigHealth = QtCore.Signal(object)
+    sigControls = QtCore.Signal(object)
+    sigControlApplied = QtCore.Signal(object)
+    sigControlError = QtCore.Signal(str)
+    sigCalibrationApplied = QtCore.Signal(object)
 
     def __init__(self, session: DeskSession, results: Latest, parent=None):
         super().__init__("perception", parent)
         self.session = session
         self.results = results
         self.disparity = DisparityComputer(session.calibration)
+        self.health = CalibrationHealth()
         self._want_disparity = threading.Event()
         self._settings_lock = threading.Lock()
         self._pending_settings = None
+        self._pending_controls: dict[str, tuple[str, float]] = {}  # name -> ("value" | "auto", value)
+        self._pending_stereo: Optional[tuple[Optional[SgbmParams], Optional[StereoMatchParams]]] = None
+        self._pending_calibration = None
+        self._want_controls = True  # read them once frames arrive
         self._error_reported = ""  # the camera problem last reported ("" = none)
+        self._health_drifted = False
+        self._health_sent_t = 0.0
 
     def set_disparity_enabled(self, enabled: bool) -> None:
         if enabled:
@@ -118,21 +147,109 @@ class PerceptionWorker(_LoopThread):
             self._want_disparity.clear()
 
     def set_sgbm_params(self, params: SgbmParams) -> None:
-        self.disparity.set_params(params)
+        """New block-matching parameters (applied before the next frame)."""
+        self.set_stereo_params(params, None)
+
+    def set_match_params(self, match: StereoMatchParams) -> None:
+        """New matcher / WLS / resolution choice (applied before the next frame)."""
+        self.set_stereo_params(None, match)
+
+    def set_stereo_params(self, params: Optional[SgbmParams], match: Optional[StereoMatchParams]) -> None:
+        """Either or both stereo parameter sets (None keeps that set)."""
+        with self._settings_lock:
+            old_p, old_m = self._pending_stereo or (None, None)
+            self._pending_stereo = (params or old_p, match or old_m)
 
     def set_camera_settings(self, settings) -> None:
         with self._settings_lock:
             self._pending_settings = settings
 
+    def request_control(self, name: str, value: float) -> None:
+        """Set a device control on both cameras (the newest value per control wins)."""
+        with self._settings_lock:
+            self._pending_controls[name] = ("value", float(value))
+
+    def request_auto(self, name: str, on: bool) -> None:
+        """Switch a control's automatic mode on both cameras."""
+        with self._settings_lock:
+            self._pending_controls[name + ":auto"] = ("auto", 1.0 if on else 0.0)
+
+    def request_controls(self) -> None:
+        """Read the controls again and emit sigControls."""
+        with self._settings_lock:
+            self._want_controls = True
+
+    def set_calibration(self, calibration) -> None:
+        """Use this StereoCalibration from the next frame on (perception, disparity, health)."""
+        with self._settings_lock:
+            self._pending_calibration = calibration
+
     def wake(self) -> None:
         self.session.camera.interrupt()
 
-    def loop_once(self) -> None:
+    def _apply_requests(self) -> None:
         s = self.session
         with self._settings_lock:
             settings, self._pending_settings = self._pending_settings, None
+            controls, self._pending_controls = self._pending_controls, {}
+            stereo, self._pending_stereo = self._pending_stereo, None
+            calibration, self._pending_calibration = self._pending_calibration, None
         if settings is not None:
             s.camera.set_settings(settings)
+        for key, (kind, value) in sorted(controls.items(), key=lambda kv: kv[1][0] != "auto"):
+            name = key.split(":")[0]
+            try:
+                applied = (s.camera.set_auto(name, bool(value)) if kind == "auto"
+                           else s.camera.set_control(name, value))
+            except (KeyError, CameraError, ValueError) as exc:
+                self.sigControlError.emit(str(exc).strip("'\""))
+            else:
+                self.sigControlApplied.emit(applied)
+        if stereo is not None:
+            params, match = stereo
+            self.disparity.set_all(params or self.disparity.params, match or self.disparity.match)
+        if calibration is not None:
+            self._use_calibration(calibration)
+
+    def _use_calibration(self, calib) -> None:
+        s = self.session
+        old = s.perception
+        new = StereoMarkerPerception(calib, old.base_T_camera, marker_ids=old.marker_ids,
+                                     full_search_every=old.full_search_every, search_margin=old.search_margin)
+        # keep the detectors (their dictionary and tuning) and the robust-search rhythm
+        new.detector, new.robust_detector, new.robust_every = old.detector, old.robust_detector, old.robust_every
+        s.calibration = calib
+        s.perception = new
+        self.disparity = DisparityComputer(calib, self.disparity.params, self.disparity.match)
+        self.health.reset()
+        if self._health_drifted:
+            self._health_drifted = False
+            self.sigHealth.emit(self.health.status())
+        self.sigCalibrationApplied.emit(calib)
+
+    def _emit_controls(self) -> None:
+        with self._settings_lock:
+            want, self._want_controls = self._want_controls, False
+        if not want:
+            return
+        try:
+            controls = self.session.camera.controls("left")
+        except (CameraError, KeyError, ValueError):
+            controls = []
+        self.sigControls.emit(list(controls))
+
+    def _feed_health(self, result) -> None:
+        self.health.feed(result)
+        drifted = self.health.drifted
+        now = time.monotonic()
+        if drifted != self._health_drifted or (drifted and now - self._health_sent_t >= HEALTH_REPEAT_S):
+            self._health_drifted = drifted
+            self._health_sent_t = now
+            self.sigHealth.emit(self.health.status())
+
+    def loop_once(self) -> None:
+        s = self.session
+        self._apply_requests()
         frame = s.camera.read()
         if frame is None:
             if not s.camera.is_connected and self.running:
@@ -144,6 +261,8 @@ class PerceptionWorker(_LoopThread):
         if self._error_reported:
             self._error_reported = ""
             self.sigError.emit("")  # frames again: the camera is back
+            self.request_controls()  # a replugged device may have other ranges
+        self._emit_controls()
         result = s.perception.process(frame)
         extra = {}
         if self._want_disparity.is_set():
@@ -154,6 +273,7 @@ class PerceptionWorker(_LoopThread):
             extra["ball_left_px"] = s.ball_finder.find(frame.left)
         if extra:
             result = replace(result, **extra)
+        self._feed_health(result)
         self.results.put(result)
         self.sigResult.emit(result)
 

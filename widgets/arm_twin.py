@@ -1,18 +1,27 @@
 """The arm's 2D digital twin: a top view and a side view (the arm's vertical plane).
 
 All inputs are in metres in ``robot_base`` (x right, y forward, z up, desk at z = 0); the
-plots show centimetres. Both views have fixed ranges (:meth:`ArmTwin.set_view_range`), never
-auto-range, and reuse their plot items, so a redraw is a handful of ``setData`` calls.
+plots show centimetres. Both views have fixed ranges (:meth:`ArmTwin.set_view_range`, or
+:meth:`ArmTwin.configure_for` from a profile's workspace), never auto-range, and reuse their
+plot items, so a redraw is a handful of ``setData`` calls.
+
+Any profile draws through the same calls: the chain from ``kinematics.chain_points(q)``, the
+delta's three arms from ``DeltaKinematics.arm_segments(q)`` (:meth:`ArmTwin.set_extra_segments`),
+and the joints' distance to their limits as coloured dots (:meth:`ArmTwin.set_joint_levels`,
+levels from :func:`profile_joint_levels`). The helpers here that take a profile or a solver
+are shared with the optional 3D view (``widgets.arm_twin_3d``).
 """
 from __future__ import annotations
 
 import html
 import math
-from typing import Mapping, Optional, Sequence
+from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
+
+from widgets.joint_readout import limit_level
 
 M_TO_CM = 100.0
 MIN_AZIMUTH_RADIUS_M = 1e-3  # below this the tool is over the base axis: keep the last azimuth
@@ -26,8 +35,24 @@ WORKSPACE_COLOUR = (160, 160, 160, 150)
 PREVIEW_COLOUR = (230, 100, 230, 110)
 MARKER_COLOUR = (60, 220, 230)
 DESK_COLOUR = (150, 110, 70)
+STRUCTURE_COLOUR = (150, 150, 150)  # fixed parts from the profile: delta base plate, UMI-RTX column
 GRID_STEP_CM = 10.0
 GRID_EXTENT_CM = 200.0
+
+# Joint levels: how close a joint is to a limit (fractions of its range, as JointReadout).
+LEVELS = ("ok", "warn", "limit")
+LEVEL_ALIASES = {"near": "warn", "at": "limit"}  # JointReadout.levels() spells them so
+LEVEL_COLOURS = {"ok": MEASURED_COLOUR, "warn": (255, 140, 0), "limit": (235, 30, 30)}
+LEVEL_DOT_PX = {"ok": 10, "warn": 17, "limit": 20}  # warn/limit dots also get a white ring
+
+VIEW_MARGIN_FRACTION = 0.08  # configure_for: room around the workspace …
+VIEW_MARGIN_M = 0.02  # … plus this much
+MIN_VIEW_HALF_WIDTH_M = 0.10
+TOP_CIRCLE_POINTS = 121
+
+
+# --------------------------------------------------------------------------------------------
+# Pure helpers (no widgets): projections, joint levels, what to draw for a profile
 
 
 def arm_azimuth(commanded: Optional[np.ndarray], measured: Optional[np.ndarray],
@@ -57,6 +82,255 @@ def side_view_coords(points_m: np.ndarray, azimuth_rad: float) -> np.ndarray:
     p = np.asarray(points_m, dtype=float).reshape(-1, 3)
     direction = np.array([math.cos(azimuth_rad), math.sin(azimuth_rad)])
     return np.column_stack([p[:, :2] @ direction, p[:, 2]])
+
+
+def normalise_level(level: str) -> str:
+    """"ok", "warn" or "limit" for a level; JointReadout's "near"/"at" are accepted too."""
+    out = LEVEL_ALIASES.get(level, level)
+    if out not in LEVELS:
+        raise ValueError(f"joint level {level!r} is unknown; expected one of "
+                         f"{', '.join(LEVELS)} (or {', '.join(LEVEL_ALIASES)})")
+    return out
+
+
+def joint_levels(q: Optional[Sequence[float]], q_min: Sequence[float],
+                 q_max: Sequence[float]) -> list[str]:
+    """Per joint "ok", "warn" (within 10 % of its range from a limit) or "limit" (within 2 %).
+
+    Same thresholds as the joint table (``joint_readout.limit_level``); units do not matter
+    (rad, m) since only fractions of the range count. None or NaN entries are "ok".
+    """
+    if q is None:
+        return ["ok"] * len(q_min)
+    out = []
+    for i, (lo, hi) in enumerate(zip(q_min, q_max)):
+        v = q[i] if i < len(q) else None
+        out.append(normalise_level(limit_level(None if v is None else float(v), lo, hi)))
+    return out
+
+
+def profile_joint_levels(profile: Any, q: Optional[Sequence[float]]) -> list[str]:
+    """:func:`joint_levels` of ``q`` (rad or m) against a RobotProfile's q_min/q_max."""
+    return joint_levels(q, profile.q_min, profile.q_max)
+
+
+def joint_anchors_for(profile: Any) -> list[tuple[int, int]]:
+    """Where each joint's dot sits: (chain, point index), chain -1 = the measured chain,
+    k ≥ 0 = extra segment k.
+
+    - ``rrr``: chain_points are base, shoulder, elbow, tool: joint i is point i;
+    - ``urdf``: chain_points are the root, each joint's origin, the tool: joint i is point i+1;
+    - ``delta3``: joint i is arm i's shoulder, the first point of extra segment i
+      (``DeltaKinematics.arm_segments``).
+    """
+    n = len(profile.joints)
+    if profile.kind == "delta3":
+        return [(i, 0) for i in range(n)]
+    if profile.kind == "urdf":
+        return [(-1, i + 1) for i in range(n)]
+    return [(-1, i) for i in range(n)]
+
+
+def circle_outline(radii_m: Sequence[float], n: int = TOP_CIRCLE_POINTS) -> np.ndarray:
+    """Closed circles around the base axis, (M,2) x, y rows, separated by NaN rows."""
+    a = np.linspace(0.0, 2.0 * math.pi, n)
+    ring = np.column_stack([np.cos(a), np.sin(a)])
+    parts = []
+    for r in radii_m:
+        if parts:
+            parts.append(np.full((1, 2), np.nan))
+        parts.append(float(r) * ring)
+    return np.vstack(parts) if parts else np.zeros((0, 2))
+
+
+def workspace_outlines(kinematics: Any, profile: Any = None) -> tuple[Optional[np.ndarray],
+                                                                       Optional[np.ndarray]]:
+    """(top (M,2) x, y; side (K,2) s, z) outlines of the reachable set, in metres, or None.
+
+    Side: ``workspace_outline_side()`` as the solver gives it (NaN rows separate polylines);
+    a delta's (s ≥ 0 only) is mirrored, since its side view shows a fixed plane through the
+    base axis in which the tool can be on either side. Top: the circle of the largest
+    horizontal reach and, when the tool cannot come near the base axis, the inner circle —
+    radii from ``workspace_radius_range()`` and the side outline's horizontal extent (an RRR
+    arm's radius range is measured from the shoulder, not horizontally: its outline, which
+    crosses the axis, keeps the inner circle away).
+    """
+    side = None
+    if hasattr(kinematics, "workspace_outline_side"):
+        side = np.asarray(kinematics.workspace_outline_side(), dtype=float).reshape(-1, 2)
+        if len(side) == 0:
+            side = None
+    if side is not None and profile is not None and profile.kind == "delta3":
+        half = side[:-1] if np.array_equal(side[0], side[-1]) else side  # open: no edge on the axis
+        side = np.vstack([half, half[::-1] * (-1.0, 1.0)])
+    r_min, r_max = None, None
+    if hasattr(kinematics, "workspace_radius_range"):
+        r_min, r_max = (float(v) for v in kinematics.workspace_radius_range())
+    if side is not None:
+        s = side[np.isfinite(side).all(axis=1), 0]
+        if len(s):
+            outer = float(np.max(np.abs(s)))
+            r_max = outer if r_max is None else max(r_max, outer)
+            inner = float(np.min(s))
+            r_min = 0.0 if inner <= 0.0 else (inner if r_min is None else max(r_min, inner))
+    if r_max is None or not r_max > 0.0:
+        return None, side
+    radii = [r_max] + ([r_min] if r_min is not None and r_min > 0.02 * r_max else [])
+    return circle_outline(radii), side
+
+
+def structure_segments(profile: Any, kinematics: Any = None) -> list[np.ndarray]:
+    """Fixed parts to draw for a profile, as (N,3) polylines in robot_base (m).
+
+    The delta's base plate (the triangle through its shoulder axes); for a URDF arm whose first
+    joint is prismatic (the UMI-RTX's column), that joint's travel, from the solver's chain at
+    the joint's two limits. Other arms have none: their chain starts at the base.
+    """
+    if profile is None:
+        return []
+    if profile.kind == "delta3":
+        g = profile.geometry
+        corners = [(g.base_radius_m * math.cos(a), g.base_radius_m * math.sin(a), g.base_height_m)
+                   for a in g.arm_azimuths_rad]
+        return [np.array(corners + corners[:1])]
+    if (profile.kind == "urdf" and kinematics is not None and profile.joints
+            and profile.joints[0].joint_type == "prismatic"):
+        q = list(_home_q(profile, kinematics))
+        ends = []
+        for v in (profile.q_min[0], profile.q_max[0]):
+            q[0] = v
+            ends.append(np.asarray(kinematics.chain_points(q), dtype=float)[1])
+        return [np.array([(ends[0][0], ends[0][1], 0.0), ends[1]])]  # from the desk up
+    return []
+
+
+def chain_start_for(profile: Any) -> int:
+    """Index of the first chain point to draw: 2 for the delta, whose ``chain_points`` begin
+    with the desk origin and the base centre (drawing aids, no real part), else 0."""
+    return 2 if profile is not None and profile.kind == "delta3" else 0
+
+
+def _home_q(profile: Any, kinematics: Any) -> tuple[float, ...]:
+    q = getattr(kinematics, "q_home", None)
+    return tuple(profile.q_home if q is None else q)
+
+
+EXTENT_SAMPLES = 200  # random in-limit configurations whose drawings set the view extent
+
+
+def drawing_points(profile: Any, kinematics: Any, samples: int = EXTENT_SAMPLES) -> np.ndarray:
+    """Points of the arm's drawing (chain, extra segments, structure) over the home pose and
+    ``samples`` random in-limit configurations (fixed seed), (N,3) m: what the views must hold.
+    """
+    rng = np.random.default_rng(0)
+    lo, hi = np.array(profile.q_min, dtype=float), np.array(profile.q_max, dtype=float)
+    qs = [np.array(_home_q(profile, kinematics), dtype=float)]
+    qs += list(rng.uniform(lo, hi, (max(0, int(samples)), len(lo))))
+    start = chain_start_for(profile)
+    pts = [np.asarray(kinematics.chain_points(q), dtype=float).reshape(-1, 3)[start:] for q in qs]
+    if hasattr(kinematics, "arm_segments"):
+        pts += [np.asarray(kinematics.arm_segments(q), dtype=float).reshape(-1, 3) for q in qs]
+    pts += structure_segments(profile, kinematics)
+    out = np.vstack(pts)
+    return out[np.isfinite(out).all(axis=1)]
+
+
+def view_extent(profile: Any, kinematics: Any) -> tuple[float, float, float]:
+    """(xy half width, z min, z max) in metres that hold the workspace outlines and the arm's
+    drawing in any in-limit configuration (sampled, :func:`drawing_points`).
+
+    z min is just below the desk (-10 % of z max), or lower when the arm can reach below the
+    desk plane (the assistive arm can): a collision with the desk must be seen, not cut off.
+    """
+    top, side = workspace_outlines(kinematics, profile)
+    pts = drawing_points(profile, kinematics)
+    reach = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else 0.0
+    z_lo = float(np.min(pts[:, 2])) if len(pts) else 0.0
+    z_hi = float(np.max(pts[:, 2])) if len(pts) else 0.0
+    if top is not None:
+        reach = max(reach, float(np.nanmax(np.abs(top))))
+    if side is not None:
+        finite = side[np.isfinite(side).all(axis=1)]
+        if len(finite):
+            reach = max(reach, float(np.max(np.abs(finite[:, 0]))))
+            z_lo = min(z_lo, float(np.min(finite[:, 1])))
+            z_hi = max(z_hi, float(np.max(finite[:, 1])))
+    grow = 1.0 + VIEW_MARGIN_FRACTION
+    half_width = max(MIN_VIEW_HALF_WIDTH_M, reach * grow + VIEW_MARGIN_M)
+    z_max = max(MIN_VIEW_HALF_WIDTH_M, z_hi * grow + VIEW_MARGIN_M)
+    z_min = min(-0.1 * z_max, z_lo * grow - VIEW_MARGIN_M) if z_lo < 0.0 else -0.1 * z_max
+    return half_width, z_min, z_max
+
+
+def side_azimuth_for(profile: Any) -> Optional[float]:
+    """A fixed side-view plane for a profile (rad), or None to follow the tool.
+
+    The delta's tool moves around its axis, so following it would spin the side view; it
+    shows arm 0's plane instead. Serial arms follow the tool's azimuth.
+    """
+    if profile is not None and profile.kind == "delta3":
+        return float(profile.geometry.arm_azimuths_rad[0])
+    return None
+
+
+def polylines_with_gaps(segments: Optional[Sequence[np.ndarray]]) -> Optional[np.ndarray]:
+    """Polylines (each (N,3)) as one (M,3) array with NaN rows between them, or None."""
+    if segments is None:
+        return None
+    parts = []
+    for seg in segments:
+        a = np.asarray(seg, dtype=float).reshape(-1, 3)
+        if len(a) == 0:
+            continue
+        if parts:
+            parts.append(np.full((1, 3), np.nan))
+        parts.append(a)
+    return np.vstack(parts) if parts else None
+
+
+def joint_dot_positions(levels: Optional[Sequence[str]], anchors: Optional[Sequence[tuple[int, int]]],
+                        measured: Optional[np.ndarray],
+                        extra_chains: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
+    """Where to draw the joint dots and their levels: ((k,3) m, k levels), worst level last.
+
+    ``anchors`` as :func:`joint_anchors_for` (None: joint i on measured point i); joints whose
+    anchor has no point are left out, and nothing is drawn without a measured chain. The
+    worst level comes last so a red dot is never hidden under another joint's (the UMI-RTX's
+    three wrist joints share one point).
+    """
+    if levels is None or measured is None:
+        return np.zeros((0, 3)), []
+    anchors = list(anchors) if anchors else [(-1, i) for i in range(len(levels))]
+    found = []
+    for i, (chain, index) in enumerate(anchors[:len(levels)]):
+        points = measured if chain < 0 else (
+            extra_chains[chain] if chain < len(extra_chains) else None)
+        if points is not None and 0 <= index < len(points) and np.isfinite(points[index]).all():
+            found.append((LEVELS.index(levels[i]), i, points[index]))
+    found.sort(key=lambda t: (t[0], t[1]))
+    if not found:
+        return np.zeros((0, 3)), []
+    return np.array([p for _, _, p in found], dtype=float), [levels[i] for _, i, _ in found]
+
+
+def legend_html(measured_label: str) -> str:
+    """The twins' legend row (rich text): chains, target, limit levels, aimed point, markers."""
+    def swatch(colour, glyph: str, text: str) -> str:
+        r, g, b = colour[:3]
+        return (f'<span style="color: rgb({r},{g},{b}); font-weight: bold">{glyph}</span>'
+                f"&nbsp;{html.escape(text)}")
+    target = swatch(REACHABLE_COLOUR, "+", "target") + " / " + swatch(
+        UNREACHABLE_COLOUR, "+", "out of reach")
+    limits = swatch(LEVEL_COLOURS["warn"], "●", "near") + " / " + swatch(
+        LEVEL_COLOURS["limit"], "●", "at limit")
+    items = [swatch(COMMANDED_COLOUR, "- -", "commanded"),
+             swatch(MEASURED_COLOUR, "━●", measured_label), target, limits,
+             swatch(AIMED_COLOUR, "○", "aimed"), swatch(MARKER_COLOUR, "■", "markers")]
+    return "&nbsp;&nbsp; ".join(items)
+
+
+# --------------------------------------------------------------------------------------------
+# Plot items
 
 
 def _grid_pairs(step: float, extent: float) -> tuple[np.ndarray, np.ndarray]:
@@ -96,14 +370,23 @@ class _ViewItems:
     def __init__(self, plot: pg.PlotWidget) -> None:
         self.plot = plot
         self.workspace = pg.PlotCurveItem(pen=pg.mkPen(WORKSPACE_COLOUR, width=1,
-                                                       style=QtCore.Qt.PenStyle.DashLine))
+                                                       style=QtCore.Qt.PenStyle.DashLine),
+                                          connect="finite")
+        self.structure = pg.PlotCurveItem(pen=pg.mkPen(STRUCTURE_COLOUR, width=3),
+                                          connect="finite")
         self.preview = pg.PlotDataItem(pen=pg.mkPen(PREVIEW_COLOUR, width=1))
         self.commanded = pg.PlotDataItem(pen=pg.mkPen(COMMANDED_COLOUR, width=2,
                                                       style=QtCore.Qt.PenStyle.DashLine))
+        # the extra chains (the delta's arms): one curve, NaN rows between the chains
+        self.extra = pg.PlotCurveItem(pen=pg.mkPen(MEASURED_COLOUR, width=4), connect="finite")
+        self.extra_points = pg.ScatterPlotItem(symbol="o", size=8,
+                                               brush=pg.mkBrush(MEASURED_COLOUR),
+                                               pen=pg.mkPen("k", width=1))
         self.measured = pg.PlotDataItem(pen=pg.mkPen(MEASURED_COLOUR, width=5),
                                         symbol="o", symbolSize=10,
                                         symbolBrush=pg.mkBrush(MEASURED_COLOUR),
                                         symbolPen=pg.mkPen("k", width=1))
+        self.joints = pg.ScatterPlotItem(symbol="o")
         self.aim_line = pg.PlotDataItem(pen=pg.mkPen(AIMED_COLOUR, width=1,
                                                      style=QtCore.Qt.PenStyle.DotLine))
         self.aimed = pg.ScatterPlotItem(symbol="o", size=14, brush=None,
@@ -115,8 +398,11 @@ class _ViewItems:
         self.base = pg.ScatterPlotItem([0.0], [0.0], symbol="s", size=12,
                                        brush=pg.mkBrush(90, 90, 90), pen=pg.mkPen("w"))
         self.marker_labels: list[pg.TextItem] = []
-        for z, item in enumerate((self.workspace, self.preview, self.base, self.markers,
-                                  self.commanded, self.measured, self.aim_line, self.aimed,
+        self.joints.setVisible(False)
+        self.extra_points.setVisible(False)
+        for z, item in enumerate((self.workspace, self.structure, self.preview, self.base,
+                                  self.markers, self.commanded, self.extra, self.extra_points,
+                                  self.measured, self.joints, self.aim_line, self.aimed,
                                   self.target)):
             item.setZValue(z)
             plot.addItem(item)
@@ -142,19 +428,25 @@ def _xy(points: Optional[np.ndarray], cols: slice = slice(0, 2)) -> tuple[np.nda
     return a[:, 0], a[:, 1]
 
 
-def _set_points(item: pg.ScatterPlotItem, x: np.ndarray, y: np.ndarray) -> None:
+def _set_points(item: pg.ScatterPlotItem, x: np.ndarray, y: np.ndarray, **kwargs) -> None:
     """setData, hiding the item when empty (an empty scatter still costs ~0.15 ms a paint)."""
-    item.setData(x, y)
+    item.setData(x, y, **kwargs)
     item.setVisible(len(x) > 0)
+
+
+def _finite_rows(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    keep = np.isfinite(x) & np.isfinite(y)
+    return x[keep], y[keep]
 
 
 class ArmTwin(QtWidgets.QWidget):
     """Top view (x, y) and side view (s, z) of the arm, its target, markers and workspace.
 
     The side view shows the vertical plane through the base axis at the arm's azimuth (from
-    the measured, else commanded, tool point); every 3D point is projected onto it with
-    :func:`side_view_coords`. The two plots sit side by side on wide widgets and stacked on
-    tall ones. Inputs are metres in robot_base; the plots are in centimetres.
+    the measured, else commanded, tool point, unless pinned with :meth:`set_side_azimuth`);
+    every 3D point is projected onto it with :func:`side_view_coords`. The two plots sit side
+    by side on wide widgets and stacked on tall ones. Inputs are metres in robot_base; the
+    plots are in centimetres.
 
     Signals: none (display only).
     """
@@ -162,13 +454,23 @@ class ArmTwin(QtWidgets.QWidget):
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self._azimuth = math.pi / 2
+        self._fixed_azimuth: Optional[float] = None
         self._commanded: Optional[np.ndarray] = None
         self._measured: Optional[np.ndarray] = None
+        self._extra: Optional[np.ndarray] = None  # (M,3) chains with NaN rows between them
+        self._extra_chains: list[np.ndarray] = []
+        self._levels: Optional[list[str]] = None
+        self._anchors: Optional[list[tuple[int, int]]] = None
         self._target: Optional[np.ndarray] = None
         self._reachable = True
         self._aimed: Optional[np.ndarray] = None
         self._preview: Optional[np.ndarray] = None
         self._markers: dict[int, np.ndarray] = {}
+        self._structure: Optional[np.ndarray] = None
+        self._chain_start = 0  # chain points before this index are not drawn (chain_start_for)
+        self._level_brush = {k: pg.mkBrush(*LEVEL_COLOURS[k]) for k in LEVELS}
+        self._level_pen = {"ok": pg.mkPen("k", width=1), "warn": pg.mkPen("w", width=2),
+                           "limit": pg.mkPen("w", width=2)}
 
         self.top_plot = _make_plot("Top view", "x (cm)", "y (cm)")
         self.side_plot = _make_plot("Side view (arm plane)", "s (cm)", "z (cm)")
@@ -215,26 +517,97 @@ class ArmTwin(QtWidgets.QWidget):
         """The azimuth (rad) of the plane the side view shows."""
         return self._azimuth
 
-    def set_view_range(self, xy_half_width_m: float, z_max_m: float) -> None:
-        """Fix both views' ranges: x, y, s in ±half width, z from just below the desk to max."""
+    def set_view_range(self, xy_half_width_m: float, z_max_m: float,
+                       z_min_m: Optional[float] = None) -> None:
+        """Fix both views' ranges: x, y, s in ±half width, z from ``z_min_m`` (default: just
+        below the desk, -10 % of z max) to ``z_max_m``."""
         hw = xy_half_width_m * M_TO_CM
         z_max = z_max_m * M_TO_CM
+        z_min = -0.1 * z_max if z_min_m is None else z_min_m * M_TO_CM
         self.top_plot.setRange(xRange=(-hw, hw), yRange=(-hw, hw), padding=0.0)
-        self.side_plot.setRange(xRange=(-hw, hw), yRange=(-0.1 * z_max, z_max), padding=0.0)
+        self.side_plot.setRange(xRange=(-hw, hw), yRange=(z_min, z_max), padding=0.0)
+
+    def configure_for(self, profile: Any, kinematics: Any) -> None:
+        """Set up the views for a robot profile and its solver (call again on a profile change).
+
+        View ranges that hold the workspace and the arm in any in-limit configuration
+        (:func:`view_extent`), the workspace outlines (:func:`workspace_outlines`), fixed parts
+        (:func:`structure_segments`: the delta's base plate, the UMI-RTX's column), the joint
+        dots' places (:func:`joint_anchors_for`), the chain points to draw
+        (:func:`chain_start_for`) and a fixed side-view plane for the delta
+        (:func:`side_azimuth_for`). Clears the arm, its extra segments and joint levels, which
+        belonged to the previous profile.
+        """
+        half_width, z_min, z_max = view_extent(profile, kinematics)
+        self.set_view_range(half_width, z_max, z_min)
+        self.set_workspace(*workspace_outlines(kinematics, profile))
+        self._anchors = joint_anchors_for(profile)
+        self._chain_start = chain_start_for(profile)
+        self._structure = polylines_with_gaps(structure_segments(profile, kinematics))
+        self._top.structure.setData(*_xy(self._structure), connect="finite")
+        self._levels = None
+        self.set_extra_segments(None)
+        self.set_arm(None, None)
+        self.set_side_azimuth(side_azimuth_for(profile))
+
+    def set_side_azimuth(self, azimuth_rad: Optional[float]) -> None:
+        """Pin the side view to the vertical plane at ``azimuth_rad`` (rad), or None to follow
+        the tool's azimuth (the default)."""
+        self._fixed_azimuth = None if azimuth_rad is None else float(azimuth_rad)
+        if self._fixed_azimuth is not None:
+            self._azimuth = self._fixed_azimuth
+        else:
+            self._azimuth = arm_azimuth(self._commanded, self._measured, self._azimuth)
+        self._redraw_side()
 
     def set_arm(self, commanded: Optional[np.ndarray], measured: Optional[np.ndarray]) -> None:
         """Draw the commanded (dashed) and measured (thick) chains, (N,3) base→tool, or None."""
         self._commanded = None if commanded is None else np.asarray(commanded, dtype=float)
         self._measured = None if measured is None else np.asarray(measured, dtype=float)
-        azimuth = arm_azimuth(self._commanded, self._measured, self._azimuth)
+        if self._fixed_azimuth is None:
+            azimuth = arm_azimuth(self._commanded, self._measured, self._azimuth)
+        else:
+            azimuth = self._fixed_azimuth
         moved = abs(azimuth - self._azimuth) > 1e-4
         self._azimuth = azimuth
         for chain, top, side in ((self._commanded, self._top.commanded, self._side.commanded),
                                  (self._measured, self._top.measured, self._side.measured)):
+            chain = self._drawn(chain)
             top.setData(*_xy(chain))
             side.setData(*self._side_xy(chain))
         if moved:
             self._redraw_side_extras()
+        self._draw_joints()
+
+    def set_extra_segments(self, segments: Optional[Sequence[np.ndarray]]) -> None:
+        """Draw more chains beside the measured one, each (N,3) m, or None to clear.
+
+        For the delta: ``DeltaKinematics.arm_segments(q)`` (3 arms × shoulder, elbow,
+        effector joint, effector centre), drawn in the measured arm's colour.
+        """
+        self._extra_chains = ([] if segments is None else
+                              [np.asarray(s, dtype=float).reshape(-1, 3) for s in segments])
+        self._extra = polylines_with_gaps(self._extra_chains)
+        self._draw_extra(self._top, _xy)
+        self._draw_extra(self._side, self._side_xy)
+        self._draw_joints()
+
+    def set_joint_levels(self, levels: Optional[Sequence[str]]) -> None:
+        """Colour the measured arm's joint dots: per joint "ok", "warn" (orange) or "limit"
+        (red); None hides them. See :func:`profile_joint_levels`.
+
+        JointReadout's "near"/"at" are accepted too. Without :meth:`configure_for` joint i's
+        dot is point i of the measured chain (the RRR arm's layout).
+        """
+        new = None if levels is None else [normalise_level(v) for v in levels]
+        if new == self._levels:  # the usual frame: set_arm already moved the dots
+            return
+        self._levels = new
+        self._draw_joints()
+
+    def joint_levels(self) -> Optional[list[str]]:
+        """The levels last set with :meth:`set_joint_levels` (normalised), or None."""
+        return None if self._levels is None else list(self._levels)
 
     def set_measured_label(self, text: str) -> None:
         """Rename the measured chain in the legend, e.g. "commanded (no feedback)"."""
@@ -257,15 +630,20 @@ class ArmTwin(QtWidgets.QWidget):
 
     def set_workspace(self, top_outline: Optional[np.ndarray],
                       side_outline: Optional[np.ndarray]) -> None:
-        """Draw the reachable outlines: top (M,2) x, y and side (K,2) s, z, in metres."""
+        """Draw the reachable outlines: top (M,2) x, y and side (K,2) s, z, in metres.
+
+        NaN rows separate polylines (each drawn as given, e.g. an RRR arm's extra arcs); an
+        outline without NaN rows is closed.
+        """
         for outline, item in ((top_outline, self._top.workspace),
                               (side_outline, self._side.workspace)):
             if outline is None or len(outline) == 0:
                 item.setData([], [])
                 continue
             a = np.asarray(outline, dtype=float).reshape(-1, 2) * M_TO_CM
-            a = np.vstack([a, a[:1]])  # closed
-            item.setData(a[:, 0], a[:, 1])
+            if np.isfinite(a).all() and not np.array_equal(a[0], a[-1]):
+                a = np.vstack([a, a[:1]])  # closed
+            item.setData(a[:, 0], a[:, 1], connect="finite")
 
     def set_preview(self, points: Optional[np.ndarray]) -> None:
         """Draw a faint preview curve (P,3) in both views (e.g. the Lissajous path)."""
@@ -283,22 +661,21 @@ class ArmTwin(QtWidgets.QWidget):
         self._top.set_marker_labels(ids, top)
         self._draw_side_markers()
 
-    # ----------------------------------------------------------------------------- internals
-    def _update_legend(self) -> None:
-        def swatch(colour, glyph: str, text: str) -> str:
-            r, g, b = colour[:3]
-            return (f'<span style="color: rgb({r},{g},{b}); font-weight: bold">{glyph}</span>'
-                    f"&nbsp;{html.escape(text)}")
-        target = swatch(REACHABLE_COLOUR, "+", "target") + " / " + swatch(
-            UNREACHABLE_COLOUR, "+", "out of reach")
-        items = [swatch(COMMANDED_COLOUR, "- -", "commanded"),
-                 swatch(MEASURED_COLOUR, "━●", self._measured_label), target,
-                 swatch(AIMED_COLOUR, "○", "aimed"), swatch(MARKER_COLOUR, "■", "markers")]
-        self.legend_label.setText("&nbsp;&nbsp; ".join(items))
-
     def legend_text(self) -> str:
         """The legend as plain text (for tests and accessibility)."""
         return QtGui.QTextDocumentFragment.fromHtml(self.legend_label.text()).toPlainText()
+
+    def joint_dots(self, view: str = "top") -> list[tuple[float, float, str]]:
+        """The joint dots drawn in ``view``: (x, y) cm in "top", (s, z) cm in "side", and the
+        level, worst last."""
+        item = (self._top if view == "top" else self._side).joints
+        if not item.isVisible():
+            return []
+        return [(float(p.pos().x()), float(p.pos().y()), p.data()) for p in item.points()]
+
+    # ----------------------------------------------------------------------------- internals
+    def _update_legend(self) -> None:
+        self.legend_label.setText(legend_html(self._measured_label))
 
     def _side_xy(self, points: Optional[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         if points is None or len(points) == 0:
@@ -306,11 +683,42 @@ class ArmTwin(QtWidgets.QWidget):
         sz = side_view_coords(points, self._azimuth) * M_TO_CM
         return sz[:, 0], sz[:, 1]
 
+    def _drawn(self, chain: Optional[np.ndarray]) -> Optional[np.ndarray]:
+        return chain if chain is None or not self._chain_start else chain[self._chain_start:]
+
+    def _redraw_side(self) -> None:
+        """Re-project everything in the side view (after the azimuth changed)."""
+        for chain, item in ((self._commanded, self._side.commanded),
+                            (self._measured, self._side.measured)):
+            item.setData(*self._side_xy(self._drawn(chain)))
+        self._side.structure.setData(*self._side_xy(self._structure), connect="finite")
+        self._redraw_side_extras()
+        self._draw_joints()
+
     def _redraw_side_extras(self) -> None:
-        """Re-project what depends on the azimuth (target, preview, markers) into the side view."""
+        """Re-project what depends on the azimuth (target, preview, markers, extra chains)."""
         self._side.preview.setData(*self._side_xy(self._preview))
+        self._draw_extra(self._side, self._side_xy)
         self._draw_target()
         self._draw_side_markers()
+
+    def _draw_extra(self, view: _ViewItems, project) -> None:
+        if self._extra is None and not view.extra_points.isVisible():
+            return  # nothing drawn, nothing to draw (serial arms, every frame)
+        x, y = project(self._extra)
+        view.extra.setData(x, y, connect="finite")
+        _set_points(view.extra_points, *_finite_rows(x, y))
+
+    def _draw_joints(self) -> None:
+        if (self._levels is None or self._measured is None) and not self._top.joints.isVisible():
+            return  # nothing drawn, nothing to draw
+        pts, levels = joint_dot_positions(self._levels, self._anchors, self._measured,
+                                          self._extra_chains)
+        kwargs = dict(brush=[self._level_brush[v] for v in levels],
+                      pen=[self._level_pen[v] for v in levels],
+                      size=[LEVEL_DOT_PX[v] for v in levels], data=levels)
+        _set_points(self._top.joints, *_xy(pts), **kwargs)
+        _set_points(self._side.joints, *self._side_xy(pts), **kwargs)
 
     def _draw_side_markers(self) -> None:
         ids = sorted(self._markers)

@@ -173,12 +173,13 @@ class SgbmPanel(QtWidgets.QWidget):
     sigParamsChanged = QtCore.Signal(object)
 
     def __init__(self, params: Optional[SgbmParams] = None,
-                 parent: QtWidgets.QWidget | None = None) -> None:
+                 parent: QtWidgets.QWidget | None = None, scroll: bool = True) -> None:
         super().__init__(parent)
         self._last_sent = params or SgbmParams()
         self._coalescer = Coalescer(THROTTLE_MS, self._emit_now, self)
         self.sliders: dict[str, QLabeledSlider] = {}
         self.auto_boxes: dict[str, QtWidgets.QCheckBox] = {}
+        self._labels: dict[str, QtWidgets.QLabel] = {}
         self._specs = {spec.name: spec for spec in SGBM_SLIDERS}
 
         content = QtWidgets.QWidget()
@@ -201,7 +202,8 @@ class SgbmPanel(QtWidgets.QWidget):
             touch_slider(slider)
             slider.valueChanged.connect(lambda v, s=spec: self._on_slider(s, v))
             self.sliders[spec.name] = slider
-            grid.addWidget(_row_label(spec.label), row, 0)
+            self._labels[spec.name] = _row_label(spec.label)
+            grid.addWidget(self._labels[spec.name], row, 0)
             if spec.auto:
                 box = QtWidgets.QCheckBox("auto")
                 box.setStyleSheet(CHECKBOX_STYLE)
@@ -219,10 +221,12 @@ class SgbmPanel(QtWidgets.QWidget):
         self.reset_button.clicked.connect(self.reset)
         grid.addWidget(self.reset_button, row, 0, 1, 2)
         grid.setRowStretch(row + 1, 1)
+        self._mode_label = grid.itemAtPosition(0, 0).widget()
 
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        layout.addWidget(touch_scroll_area(content))
+        # inside a page that scrolls already (the Stereo tab), a second scroll area only hurts
+        layout.addWidget(touch_scroll_area(content) if scroll else content)
         self._show(self._last_sent)
 
     def params(self) -> SgbmParams:
@@ -250,6 +254,15 @@ class SgbmPanel(QtWidgets.QWidget):
     def flush(self) -> None:
         """Emit a pending change now instead of at the end of the throttle interval."""
         self._coalescer.flush()
+
+    def set_sgbm_controls_visible(self, visible: bool) -> None:
+        """Show or hide what only StereoSGBM uses (mode, P1, P2): hidden while StereoBM matches."""
+        self.mode_combo.setVisible(visible)
+        self._mode_label.setVisible(visible)
+        for name in ("p1", "p2"):
+            self.sliders[name].setVisible(visible)
+            self.auto_boxes[name].setVisible(visible)
+            self._labels[name].setVisible(visible)
 
     def _show(self, params: SgbmParams) -> None:
         auto_p1, auto_p2 = params.penalties(channels=1)

@@ -140,10 +140,13 @@ class CameraView(QtWidgets.QWidget):
     Coordinates everywhere are the raw image's pixels in the OpenCV convention (x right,
     y down, pixel centres at integers). Mouse pan/zoom and the context menu are off so taps
     are only taps. Marker overlays are shown in image mode only: their corners are raw-image
-    pixels while the disparity map lives in the rectified image.
+    pixels while the disparity map lives in the rectified image. In disparity mode the colour
+    bar can carry depth labels (``set_depth_legend``) and a tapped pixel a depth probe
+    (``set_probe``).
 
     Signals (all emitted from the GUI thread):
-        sigClicked(float x_px, float y_px): the user clicked/tapped the image at that pixel.
+        sigClicked(float x_px, float y_px): the user clicked/tapped the image at that pixel
+            (in disparity mode: a pixel of the rectified left view, where the window measures depth).
         sigMarkerClicked(int marker_id): the click was inside a drawn marker outline
             (emitted after sigClicked).
         sigDisplayModeChanged(str mode): the user switched the toggle; "image" or "disparity".
@@ -188,10 +191,20 @@ class CameraView(QtWidgets.QWidget):
         self._disparity_item.setLookupTable(disparity_lut())
         self._disparity_item.setVisible(False)
         self._colour_bar = pg.ColorBarItem(values=(0.0, self._max_disparity),
-                                           colorMap=DISPARITY_COLORMAP, label="disparity (px)",
+                                           colorMap=DISPARITY_COLORMAP,
                                            interactive=False, width=14, colorMapMenu=False)
+        self._colour_bar.setContentsMargins(0, 14, 0, 14)  # room for the end marks' labels
         self._graphics.addItem(self._colour_bar, row=0, col=1)
         self._colour_bar.setVisible(False)
+        # the depth probe: a cross at the tapped pixel (in the scene) and its depth as an overlay
+        # label (a scene text would be scaled with a small view and run out of it)
+        self._probe_mark = pg.ScatterPlotItem(size=26, symbol="+", pen=pg.mkPen("k", width=1.5),
+                                              brush=pg.mkBrush("w"))
+        self._probe_mark.setZValue(20)
+        self._probe_mark.setVisible(False)
+        self._view_box.addItem(self._probe_mark, ignoreBounds=True)
+        self._probe: Optional[tuple[float, float, str]] = None
+        self._legend: list[tuple[float, str]] = []
         self._graphics.scene().sigMouseClicked.connect(self._on_scene_clicked)
 
         # Overlays are child widgets of the graphics view, placed on resize.
@@ -200,6 +213,11 @@ class CameraView(QtWidgets.QWidget):
         self._fps_label.setStyleSheet("QLabel { background: rgba(0,0,0,150); color: white;"
                                       " padding: 2px 6px; }")
         self._fps_label.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents)
+        self._probe_label = QtWidgets.QLabel("", self._graphics)
+        self._probe_label.setStyleSheet("QLabel { background: rgba(0,0,0,190); color: white;"
+                                        " font-weight: bold; padding: 2px 6px; }")
+        self._probe_label.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents)
+        self._probe_label.hide()
         self._graphics.installEventFilter(self)
 
         header = QtWidgets.QHBoxLayout()
@@ -264,6 +282,44 @@ class CameraView(QtWidgets.QWidget):
         index = disparity_to_index(disp_px, max_disparity)
         self._disparity_item.setImage(index, autoLevels=False, levels=(0, 255))
         self._ensure_range(index.shape[0], index.shape[1])
+
+    def set_depth_legend(self, ticks: Sequence[tuple[float, str]]) -> None:
+        """Label the disparity colour bar: (disparity px, text) marks, e.g. (32.0, "32 px\n41 cm")."""
+        self._legend = [(float(d), str(t)) for d, t in ticks]
+        self._colour_bar.axis.setTicks([self._legend])
+        self._colour_bar.axis.setWidth(58 if any("\n" in str(t) for _, t in ticks) else 45)
+
+    @property
+    def depth_legend(self) -> list[tuple[float, str]]:
+        """The colour bar's marks as last set by :meth:`set_depth_legend`."""
+        return list(self._legend)
+
+    def set_probe(self, x_px: float, y_px: float, text: str) -> None:
+        """Mark pixel (x, y) of the disparity map with a cross and ``text`` (shown in disparity mode)."""
+        self._probe = (float(x_px), float(y_px), text)
+        self._probe_mark.setData([float(x_px)], [float(y_px)])
+        self._probe_label.setText(text)
+        self._update_probe_visibility()
+
+    def clear_probe(self) -> None:
+        """Remove the depth probe."""
+        self._probe = None
+        self._update_probe_visibility()
+
+    @property
+    def probe(self) -> Optional[tuple[float, float, str]]:
+        """(x px, y px, text) of the depth probe, or None."""
+        return self._probe
+
+    def probe_text(self) -> str:
+        """The depth probe's text as shown ("" when hidden)."""
+        return "" if self._probe_label.isHidden() else self._probe_label.text()
+
+    def _update_probe_visibility(self) -> None:
+        visible = self._probe is not None and self._mode == "disparity"
+        self._probe_mark.setVisible(visible)
+        self._probe_label.setVisible(visible)
+        self._place_overlays()
 
     def set_markers(self, markers: Sequence[MarkerOverlay]) -> None:
         """Draw these marker outlines (replacing the previous ones)."""
@@ -334,6 +390,7 @@ class CameraView(QtWidgets.QWidget):
         self._colour_bar.setVisible(disparity)
         for slot in self._markers:
             slot.set_visible(not disparity)
+        self._update_probe_visibility()
         if disparity and self._last_disparity is not None:
             self.show_disparity(*self._last_disparity)
         elif not disparity and self._last_image is not None:
@@ -375,3 +432,10 @@ class CameraView(QtWidgets.QWidget):
         self._fps_label.adjustSize()
         self._fps_label.move(4, self._graphics.height() - self._fps_label.height() - 4)
         self._fps_label.raise_()
+        if not self._probe_label.isHidden():
+            self._probe_label.setMaximumWidth(max(60, width - 8))
+            self._probe_label.adjustSize()
+            # bottom-left above the fps label: clear of the colour bar on the right
+            y = self._fps_label.y() - self._probe_label.height() - 2
+            self._probe_label.move(4, max(0, y))
+            self._probe_label.raise_()

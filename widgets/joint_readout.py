@@ -1,4 +1,4 @@
-"""A compact joint table: commanded and measured servo angles against their limits."""
+"""A compact joint table: commanded and measured joint values against their limits."""
 from __future__ import annotations
 
 import math
@@ -11,6 +11,8 @@ from widgets._style import ERROR_COLOUR, OK_COLOUR, WARN_COLOUR
 NEAR_LIMIT_FRACTION = 0.10  # within 10 % of the range from a limit: orange
 AT_LIMIT_FRACTION = 0.02  # within 2 %: red (the safety clamp is about to bite)
 LEVEL_COLOURS = {"ok": OK_COLOUR, "near": WARN_COLOUR, "at": ERROR_COLOUR}
+HEADERS_DEG = ("joint", "cmd °", "meas °", "limits °", "")
+HEADERS_MIXED = ("joint", "cmd", "meas", "limits", "")  # units per row, in the limits column
 
 
 def limit_level(value_deg: Optional[float], min_deg: float, max_deg: float) -> str:
@@ -98,12 +100,14 @@ class JointReadout(QtWidgets.QWidget):
         self._grid.setHorizontalSpacing(8)
         self._grid.setVerticalSpacing(2)
         self._grid.setColumnStretch(4, 1)
-        for col, text in enumerate(("joint", "cmd °", "meas °", "limits °", "")):
+        self._headers: list[QtWidgets.QLabel] = []
+        for col, text in enumerate(HEADERS_DEG):
             header = QtWidgets.QLabel(text)
             font = header.font()
             font.setBold(True)
             header.setFont(font)
             self._grid.addWidget(header, 0, col)
+            self._headers.append(header)
         self._rows: list[tuple[QtWidgets.QLabel, ...]] = []
         self._bars: list[_LimitBar] = []
         self._min: list[float] = []
@@ -111,11 +115,22 @@ class JointReadout(QtWidgets.QWidget):
         self._levels: list[str] = []
 
     def set_joints(self, names: Sequence[str], min_deg: Sequence[float],
-                   max_deg: Sequence[float]) -> None:
-        """Lay out one row per joint with its limits (servo degrees)."""
+                   max_deg: Sequence[float], units: Optional[Sequence[str]] = None) -> None:
+        """Lay out one row per joint with its limits (servo degrees).
+
+        ``units`` names each joint's display unit when they are not all degrees (e.g. the
+        UMI-RTX's column in "mm": ``JointSpec.display_unit``); the values and limits are then
+        in those units and each row's limits say their unit.
+        """
         if not len(names) == len(min_deg) == len(max_deg):
             raise ValueError(f"set_joints: {len(names)} names, {len(min_deg)} minima and "
                              f"{len(max_deg)} maxima; expected the same count")
+        if units is not None and len(units) != len(names):
+            raise ValueError(f"set_joints: {len(units)} units for {len(names)} joints;"
+                             " expected one unit per joint")
+        mixed = units is not None and any(u not in ("deg", "°") for u in units)
+        for header, text in zip(self._headers, HEADERS_MIXED if mixed else HEADERS_DEG):
+            header.setText(text)
         for widgets in self._rows:
             for w in widgets:
                 self._grid.removeWidget(w)
@@ -136,7 +151,8 @@ class JointReadout(QtWidgets.QWidget):
                 label.setMinimumWidth(number_width)
                 label.setAlignment(QtCore.Qt.AlignmentFlag.AlignRight
                                    | QtCore.Qt.AlignmentFlag.AlignVCenter)
-            limits = QtWidgets.QLabel(f"{self._min[i]:.0f}…{self._max[i]:.0f}")
+            unit = "" if not mixed else " " + ("°" if units[i] in ("deg", "°") else units[i])
+            limits = QtWidgets.QLabel(f"{self._min[i]:.0f}…{self._max[i]:.0f}{unit}")
             bar = _LimitBar()
             bar.lo, bar.hi = self._min[i], self._max[i]
             for col, w in enumerate((name_label, cmd, meas, limits, bar)):
