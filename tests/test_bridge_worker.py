@@ -1,5 +1,6 @@
 """The bridge QThread: reconnects with backoff after failures and shows the state."""
 import pytest
+from PySide6 import QtCore
 
 from app.workers import BridgeWorker, Latest
 from core.bridge import BridgeError, SimServoArm
@@ -21,6 +22,18 @@ class FlakyArm(SimServoArm):
         super().connect()
 
 
+class StatusLog(QtCore.QObject):
+    """Collects statuses in the GUI thread (a slot of a GUI-thread QObject: queued delivery)."""
+
+    def __init__(self):
+        super().__init__()
+        self.items = []
+
+    @QtCore.Slot(object)
+    def add(self, status):
+        self.items.append(status)
+
+
 @pytest.fixture
 def session():
     s = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
@@ -31,14 +44,14 @@ def session():
 def test_reconnects_with_backoff_and_reports_each_state(qtbot, session):
     session.bridge = FlakyArm(session.profile, failures=2)
     worker = BridgeWorker(session, Latest(), Latest())
-    statuses = []
-    worker.sigStatus.connect(statuses.append)
+    log = StatusLog()
+    worker.sigStatus.connect(log.add)
     worker.start()
     try:
-        with qtbot.waitSignal(worker.sigStatus, timeout=5000, check_params_cb=lambda st: st.connected):
-            pass
+        qtbot.waitUntil(lambda: any(st.connected for st in log.items), timeout=8000)
     finally:
         worker.stop()
+    statuses = log.items
     assert session.bridge.attempts == 3
     assert any(not st.connected and "plugged in" in st.message for st in statuses)
     assert worker.isFinished()
@@ -48,12 +61,12 @@ def test_switching_to_an_unfit_bridge_keeps_the_working_one(qtbot, session):
     worker = BridgeWorker(session, Latest(), Latest())
     session.bridge.connect()
     before = session.bridge
+    log = StatusLog()
+    worker.sigStatus.connect(log.add)
     worker.start()
     try:
         worker.request_bridge("v2:loop://")  # a v2 board must answer; loop:// cannot
-        with qtbot.waitSignal(worker.sigStatus, timeout=5000,
-                              check_params_cb=lambda st: "could not switch" in st.message):
-            pass
+        qtbot.waitUntil(lambda: any("could not switch" in st.message for st in log.items), timeout=8000)
     finally:
         worker.stop()
     assert worker.isFinished()

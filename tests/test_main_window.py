@@ -1,4 +1,9 @@
-"""The main window on the simulated desk, with its three workers running (pytest-qt, offscreen)."""
+"""The main window on the simulated desk, with its three workers running (pytest-qt, offscreen).
+
+Tests wait on the window's own GUI-thread state (set by its queued slots) with
+``qtbot.waitUntil`` — never ``waitSignal`` on a worker-thread signal: pytest-qt would run its
+callback in the worker thread and race the GUI thread (seen as rare segfaults).
+"""
 import numpy as np
 import pytest
 from PySide6 import QtCore
@@ -23,9 +28,14 @@ def window(qtbot):
 
 
 def first_result_with(qtbot, window, predicate, timeout=5000):
-    with qtbot.waitSignal(window.workers.perception.sigResult, timeout=timeout,
-                          check_params_cb=predicate):
-        pass
+    """Wait until the window has received a perception result for which predicate holds."""
+    qtbot.waitUntil(lambda: window._result is not None and predicate(window._result), timeout=timeout)
+
+
+def command_with(qtbot, window, predicate, timeout=3000):
+    """Wait until the window has received a (command, goal) for which predicate holds."""
+    qtbot.waitUntil(lambda: window._command is not None and predicate(window._command, window._goal),
+                    timeout=timeout)
 
 
 def test_markers_are_found_and_drawn(qtbot, window):
@@ -51,9 +61,7 @@ def test_manual_slider_moves_the_arm_goal(qtbot, window):
         panel.axes["x"].spin.setValue(-6.5)
     assert window.session.targeter.manual_target[0] == pytest.approx(-0.065)
     # the control worker turns it into a command aimed at that point
-    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=2000,
-                          check_params_cb=lambda cmd, goal: abs(goal.base_p_target[0] + 0.065) < 1e-9):
-        pass
+    command_with(qtbot, window, lambda cmd, goal: abs(goal.base_p_target[0] + 0.065) < 1e-9)
 
 
 def test_lissajous_on_and_off(qtbot, window):
@@ -70,8 +78,7 @@ def test_lissajous_on_and_off(qtbot, window):
         seen.append(goal.base_p_target)
         return goal.mode is TargetMode.LISSAJOUS and len(seen) > 5 and seen[-1] != seen[0]
 
-    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=3000, check_params_cb=moved):
-        pass
+    command_with(qtbot, window, moved)
     with qtbot.waitSignal(panel.sigLissajousRunning, timeout=1000):
         panel.run_button.click()
     assert not window.session.targeter.lissajous_running
@@ -96,20 +103,18 @@ def test_window_fits_800x480(window):
 
 
 def test_estop_stops_commands_until_rearmed(qtbot, window):
-    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=2000):
-        pass
+    command_with(qtbot, window, lambda cmd, goal: True)
     window.estop_button.engage()
     assert window.estop_button.engaged and not window.session.controller.armed
     assert "E-STOP" in window.banner.text()
-    # a tick or two may already be in flight; after that, nothing is commanded
-    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=300, raising=False):
-        pass
-    with qtbot.assertNotEmitted(window.workers.control.sigCommand, wait=300):
-        pass
+    # a tick already in flight may still arrive; after that nothing is commanded
+    qtbot.wait(200)
+    seq = window._command.seq
+    qtbot.wait(300)  # a negative check needs a span of time: 15 control ticks
+    assert window._command.seq == seq
     window.estop_button.click()  # re-arm takes a deliberate tap
     assert window.session.controller.armed
-    with qtbot.waitSignal(window.workers.control.sigCommand, timeout=2000):
-        pass
+    command_with(qtbot, window, lambda cmd, goal: cmd.seq > seq)
 
 
 def test_escape_key_engages_the_estop(qtbot, window):
@@ -121,7 +126,6 @@ def test_escape_key_engages_the_estop(qtbot, window):
 def test_unknown_bridge_url_keeps_the_working_bridge(qtbot, window):
     before = window.session.bridge
     window.on_bridge_requested("bluetooth:arm")
-    with qtbot.waitSignal(window.workers.bridge.sigStatus, timeout=3000,
-                          check_params_cb=lambda st: "bluetooth" in st.message):
-        pass
+    qtbot.waitUntil(lambda: window._bridge_status is not None and "bluetooth" in window._bridge_status.message,
+                    timeout=3000)
     assert window.session.bridge is before and before.is_connected
