@@ -19,10 +19,9 @@ CalibrationController.sigCalibrationInstalled(Path, StereoCalibration) — GUI t
 """
 from __future__ import annotations
 
-import math
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -422,6 +421,11 @@ class CalibrationController(QtCore.QObject):
         """A live frame from the window (ignored while the wizard is closed)."""
         if frame is not None and self.worker is not None:
             self.worker.feed(frame)
+
+    def camera_problem(self, message: str) -> None:
+        """Tell the open wizard that the cameras stopped (message) or are back ("")."""
+        if self.wizard is not None:
+            self.wizard.set_camera_problem(message)
 
     def close(self) -> None:
         """Close the wizard (if open) and stop its worker."""

@@ -263,6 +263,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_camera_error(self, message: str) -> None:
         """A camera problem (banner, retrying) or, with "", the camera is back."""
         self._camera_error = message or None
+        if self.calibration_controller is not None:
+            self.calibration_controller.camera_problem(message)
         if self.device_panel is not None:
             if message:
                 self.device_panel.set_message("camera not delivering frames — the controls come back with it",

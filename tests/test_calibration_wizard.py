@@ -283,6 +283,15 @@ def test_stale_and_foreign_live_updates_are_dropped(qtbot, rig, still_frames):
     assert wizard.live_count == shown and wizard.last_live is live
 
 
+def test_a_lost_camera_is_said_on_the_capture_page(qtbot, rig, still_frames):
+    ctl, wizard = rig
+    feed(qtbot, ctl, still_frames[2])
+    ctl.camera_problem("camera 0 unplugged or not delivering frames — retrying every 1 s")
+    assert "no pictures: camera 0 unplugged" in wizard.gate_label.text()
+    ctl.camera_problem("")
+    assert "no pictures" not in wizard.gate_label.text()
+
+
 def test_coverage_hint_names_the_emptiest_meter():
     from core.stereo_calibration import Coverage
     assert "tilt" in coverage_hint(Coverage(1, 1, 1, 0.2, 5, False))

@@ -199,5 +199,6 @@ def test_unplugging_shows_the_banner_and_replugging_resumes(qtbot, window):
         with qtbot.waitSignal(p.sigError, timeout=TIMEOUT_MS, check_params_cb=lambda m: m == ""):
             cam.unplugged.clear()
     assert "camera lost" not in window.banner.text()
-    with qtbot.waitSignal(p.sigResult, timeout=TIMEOUT_MS):
-        pass
+    seq = window._result.seq if window._result is not None else -1
+    qtbot.waitUntil(lambda: window._result is not None and window._result.seq > seq,
+                    timeout=TIMEOUT_MS)  # frames flow again

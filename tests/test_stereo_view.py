@@ -115,11 +115,13 @@ def window(qtbot, tmp_path, monkeypatch):
 
 
 def wait_for_disparity(qtbot, window, predicate=lambda r: True):
-    with qtbot.waitSignal(window.workers.perception.sigResult, timeout=TIMEOUT_MS,
-                          check_params_cb=lambda r: r.disparity is not None and predicate(r)):
-        pass
-    qtbot.waitUntil(lambda: window._result is not None and window._result.disparity is not None,
-                    timeout=TIMEOUT_MS)
+    """Until the window holds a result with a disparity map that satisfies ``predicate``.
+
+    Polls the window's own slot state instead of connecting a blocker to the worker's 30 Hz
+    signal: queued emissions reaching a finished pytest-qt blocker can crash the interpreter.
+    """
+    qtbot.waitUntil(lambda: window._result is not None and window._result.disparity is not None
+                    and predicate(window._result), timeout=TIMEOUT_MS)
 
 
 def click_image(qtbot, view, x_px, y_px):
@@ -188,9 +190,10 @@ def test_presets_are_saved_loaded_and_deleted_per_camera_pair(qtbot, window):
     qtbot.mouseClick(panel.load_preset_button, LEFT)
     assert panel.params().block_size == 9 and panel.match_params().matcher == "BM"
     p = window.workers.perception
-    with qtbot.waitSignal(p.sigResult, timeout=TIMEOUT_MS,
-                          check_params_cb=lambda r: p.disparity.params.block_size == 9):
-        pass
+    seq = window._result.seq if window._result is not None else -1
+    # a frame computed after the load: the worker took the preset before reading it
+    qtbot.waitUntil(lambda: window._result is not None and window._result.seq > seq + 1
+                    and p.disparity.params.block_size == 9, timeout=TIMEOUT_MS)
     assert list_presets("another pair") == []  # stored per camera pair
     qtbot.mouseClick(panel.delete_preset_button, LEFT)
     assert list_presets(pair) == [] and "deleted" in panel.preset_status.text()

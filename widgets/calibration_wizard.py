@@ -17,7 +17,7 @@ Usable on a 800×480 touch screen (full screen there, every target ≥ 44 px) an
 from __future__ import annotations
 
 import math
-from typing import Optional, Sequence
+from typing import Optional
 
 import cv2
 import numpy as np
@@ -705,6 +705,14 @@ class CalibrationWizard(QtWidgets.QDialog):
         if self._live_timer.isActive():
             self._live_timer.stop()
         self._draw_live()
+
+    def set_camera_problem(self, message: str) -> None:
+        """The cameras stopped delivering frames (message) or are back (""): say so on the capture page,
+        where the window's banner may be hidden behind a full-screen wizard."""
+        if message:
+            self._set_gate_text(f"no pictures: {message} — the live views resume when the camera is back", "error")
+        elif self.last_live is not None:
+            self._set_gate_text(*self._gate_text(self.last_live))
 
     @QtCore.Slot(object)
     def on_pairs(self, update) -> None:
