@@ -24,14 +24,16 @@ from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
 from core.stereo import PresetError, delete_preset, disparity_legend, list_presets, load_preset, save_preset
 from widgets._style import TOUCH_PX, touch_button
-from widgets.arm_twin import ArmTwin
-from widgets.camera_controls import CameraSettingsPanel
+from widgets.arm_twin import ArmTwin, profile_joint_levels
+from widgets.arm_twin_3d import available_3d, make_twin_3d
 from widgets.bridge_picker import BridgePicker
+from widgets.camera_controls import CameraSettingsPanel
 from widgets.camera_view import CameraView, MarkerOverlay
 from widgets.device_controls import DeviceControlsPanel
 from widgets.estop import EStopButton
-from widgets.stereo_panel import StereoPanel
 from widgets.joint_readout import JointReadout
+from widgets.pose_panel import PosePanel, pose_panel_applies, pose_target_from_matrix
+from widgets.stereo_panel import StereoPanel
 from widgets.status import Banner, StatusBarItems
 from widgets.target_panel import TargetPanel
 
@@ -118,10 +120,17 @@ class MainWindow(QtWidgets.QMainWindow):
             v.sigClicked.connect(self.on_view_clicked)
         left_layout.addLayout(cams, 3)
         self.twin = ArmTwin()
-        reach = s.kinematics.workspace_radius_range() if hasattr(s.kinematics, "workspace_radius_range") else (0.0, 0.25)
-        self.twin.set_view_range(max(0.25, reach[1] + 0.04), 0.32)
-        self._set_workspace_outline()
-        left_layout.addWidget(self.twin, 2)
+        self.twin.configure_for(s.profile, s.kinematics)
+        self.twin3d = None  # created on first use: the first GL widget re-composites the window
+        self.twin_stack = QtWidgets.QStackedWidget()
+        self.twin_stack.addWidget(self.twin)
+        left_layout.addWidget(self.twin_stack, 2)
+        self.view_3d_button = touch_button("3D twin", checkable=True)  # in the Robot tab
+        ok3d, self._why_no_3d = available_3d()
+        self.view_3d_button.setEnabled(ok3d)
+        if not ok3d:
+            self.view_3d_button.setText("3D twin (no OpenGL here)")
+        self.view_3d_button.toggled.connect(self.on_view_3d)
         self.splitter.addWidget(left)
 
         self.tabs = QtWidgets.QTabWidget()
@@ -133,17 +142,28 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stereo_panel = StereoPanel()
         self.sgbm_panel = self.stereo_panel.sgbm  # the block-matching trackbars
         self.joints = JointReadout()
-        self.joints.set_joints(s.profile.joint_names, *joint_display_limits(s.profile))
+        self.joints.set_joints(s.profile.joint_names, *joint_display_limits(s.profile),
+                               None if s.profile.has_servos else [j.display_unit for j in s.profile.joints])
+        self.pose_panel = None
+        if pose_panel_applies(s.profile):  # 6-DOF arms: X/Y/Z, yaw/pitch/roll, grip
+            self.pose_panel = PosePanel()
+            self.pose_panel.configure_for(s.profile, s.kinematics)
+            self.pose_panel.set_pose(pose_target_from_matrix(s.kinematics.fk_pose(s.profile.q_home)))
+            self.pose_panel.sigPoseChanged.connect(self.on_pose_target)
         self.bridge_picker = BridgePicker(list_port_choices)
         self.bridge_picker.sigConnectRequested.connect(self.on_bridge_requested)
         robot_page = QtWidgets.QWidget()
         robot_layout = QtWidgets.QVBoxLayout(robot_page)
         robot_layout.setContentsMargins(0, 0, 0, 0)
         robot_layout.addWidget(self.joints)
+        robot_layout.addWidget(self.view_3d_button)
         robot_layout.addWidget(self.bridge_picker)
         robot_layout.addStretch(1)
-        for widget, title in ((self.target_panel, "Target"), (self.camera_page, "Camera"),
-                              (self.stereo_panel, "Stereo"), (robot_page, "Robot")):
+        pages = [(self.target_panel, "Target")]
+        if self.pose_panel is not None:
+            pages.append((self.pose_panel, "Pose"))
+        pages += [(self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (robot_page, "Robot")]
+        for widget, title in pages:
             area = QtWidgets.QScrollArea()
             area.setWidgetResizable(True)
             area.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
@@ -212,25 +232,6 @@ class MainWindow(QtWidgets.QMainWindow):
             layout.addWidget(self.device_panel)
         layout.addStretch(1)
         return page
-
-    def _set_workspace_outline(self) -> None:
-        kin = self.session.kinematics
-        side = np.asarray(kin.workspace_outline_side()) if hasattr(kin, "workspace_outline_side") else None
-        top = None
-        if hasattr(kin, "workspace_radius_range"):
-            r_min, r_max = kin.workspace_radius_range()
-            a = np.linspace(0, 2 * math.pi, 121)
-            top = np.c_[r_max * np.cos(a), r_max * np.sin(a)]
-        self.twin.set_workspace(top, side)
-
-    def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802 (Qt override)
-        """Give the panels the width they need (~370 px) and the views the rest."""
-        super().resizeEvent(event)
-        width = self.splitter.width() or event.size().width()
-        needed = max(w.minimumSizeHint().width() for w in (self.target_panel, self.camera_page, self.stereo_panel, self.joints, self.bridge_picker))
-        panel = max(needed + 40, int(0.30 * width))  # + the scroll bar and frame
-        panel = min(panel, max(300, width - 400), 560)
-        self.splitter.setSizes([width - panel, panel])
 
     # --- lifecycle --------------------------------------------------------------------------
     def start(self) -> None:
@@ -543,15 +544,42 @@ class MainWindow(QtWidgets.QMainWindow):
         self.on_mode_changed(TargetMode.MANUAL.value)
         self.target_panel.set_manual_target(self.session.targeter.pointing.apply(obs.base_p_centre))
 
+    @QtCore.Slot(bool)
+    def on_view_3d(self, on: bool) -> None:
+        """Show the 3D twin (OpenGL) instead of the top and side views, or back."""
+        if on and self.twin3d is None:
+            self.twin3d = make_twin_3d()
+            if self.twin3d is None:
+                self.view_3d_button.setChecked(False)
+                self.banner.show_message(f"3D view unavailable: {available_3d()[1]}", "warn")
+                return
+            self.twin3d.configure_for(self.session.profile, self.session.kinematics)
+            self.twin_stack.addWidget(self.twin3d)
+        self.twin_stack.setCurrentWidget(self.twin3d if on else self.twin)
+        self._update_preview()
+        self._dirty = True
+
+    @QtCore.Slot(object)
+    def on_pose_target(self, pose) -> None:
+        """A pose typed in the Pose tab becomes the manual target, orientation included."""
+        self.target_panel.set_mode(TargetMode.MANUAL.value)
+        self.on_mode_changed(TargetMode.MANUAL.value)
+        self.session.targeter.set_manual_pose(pose.base_p, pose.rpy, pose.grip_m)
+
+    def _twins(self):
+        return [t for t in (self.twin, self.twin3d) if t is not None]
+
     def _update_preview(self) -> None:
         """Lissajous preview in the twin, with out-of-reach points moved to the nearest reachable."""
         t = self.session.targeter
         if t.mode is not TargetMode.LISSAJOUS:
-            self.twin.set_preview(None)
+            for twin in self._twins():
+                twin.set_preview(None)
             self._preview_note = ""
             return
         points, outside = lissajous_preview(t.lissajous, self.session.kinematics)
-        self.twin.set_preview(points)
+        for twin in self._twins():
+            twin.set_preview(points)
         self._preview_note = (
             f"{outside:.0%} of the curve is out of reach (drawn at the nearest reachable point)" if outside else ""
         )
@@ -587,16 +615,22 @@ class MainWindow(QtWidgets.QMainWindow):
                                         for m in r.markers) if o is not None]
                 view.set_markers(overlays)
                 view.set_fps(fps)
-            self.twin.set_markers({m.marker_id: np.asarray(m.base_p_centre) for m in r.markers if m.found and m.base_p_centre is not None})
-        commanded = s.kinematics.chain_points(self._command.q) if self._command is not None else None
-        measured = s.kinematics.chain_points(self._state.q) if self._state is not None else None
-        self.twin.set_arm(None if commanded is None else np.asarray(commanded), None if measured is None else np.asarray(measured))
+        twin = self.twin_stack.currentWidget()  # only the visible twin is redrawn
+        if r is not None and r.frame is not None:
+            twin.set_markers({m.marker_id: np.asarray(m.base_p_centre) for m in r.markers if m.found and m.base_p_centre is not None})
+        q_cmd = self._command.q if self._command is not None else None
+        q_meas = self._state.q if self._state is not None else None
+        twin.set_arm(None if q_cmd is None else np.asarray(s.kinematics.chain_points(q_cmd)),
+                     None if q_meas is None else np.asarray(s.kinematics.chain_points(q_meas)))
+        if hasattr(s.kinematics, "arm_segments"):  # the delta's three arms
+            twin.set_extra_segments(None if q_meas is None else list(s.kinematics.arm_segments(q_meas)))
+        twin.set_joint_levels(None if q_meas is None else profile_joint_levels(s.profile, q_meas))
         if self._state is not None:
-            self.twin.set_measured_label("measured" if self._state.measured else "commanded (no feedback)")
+            twin.set_measured_label("measured" if self._state.measured else "commanded (no feedback)")
         goal, cmd = self._goal, self._command
         if goal is not None:
-            self.twin.set_target(goal.base_p_target if goal.valid else None, bool(cmd.reachable) if cmd else True)
-            self.twin.set_aimed_point(cmd.base_p_target if cmd is not None and not cmd.reachable else None)
+            twin.set_target(goal.base_p_target if goal.valid else None, bool(cmd.reachable) if cmd else True)
+            twin.set_aimed_point(cmd.base_p_target if cmd is not None and not cmd.reachable else None)
             if not goal.valid:
                 self.target_panel.set_reach_status(goal.note or "target lost — holding", False)
             elif cmd is not None and not cmd.reachable:

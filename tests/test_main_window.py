@@ -129,3 +129,27 @@ def test_unknown_bridge_url_keeps_the_working_bridge(qtbot, window):
     qtbot.waitUntil(lambda: window._bridge_status is not None and "bluetooth" in window._bridge_status.message,
                     timeout=3000)
     assert window.session.bridge is before and before.is_connected
+
+
+@pytest.mark.parametrize("robot", ["umi_rtx", "delta"])
+def test_any_profile_runs_in_the_window(qtbot, robot):
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static", robot=robot))
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    w.resize(800, 480)
+    w.show()
+    w.start()
+    try:
+        qtbot.waitUntil(lambda: w._state is not None and w._result is not None, timeout=5000)
+        w._dirty = True
+        w.redraw()
+        assert (w.pose_panel is not None) == (robot == "umi_rtx")  # 6-DOF arms get the Pose tab
+        assert not w.view_3d_button.isEnabled()  # offscreen: no GL context, the 2D twin stays
+        if robot == "umi_rtx":
+            from widgets.pose_panel import PoseTarget
+
+            w.on_pose_target(PoseTarget((0.3, 0.2, 0.3), (0.0, 0.5, 0.3), 0.02))
+            assert w.session.targeter.manual_rpy == pytest.approx((0.0, 0.5, 0.3))
+            qtbot.waitUntil(lambda: w._goal is not None and w._goal.orientation_rpy is not None, timeout=3000)
+    finally:
+        w.stop()
