@@ -23,8 +23,7 @@ from typing import Optional, Sequence, Union
 import cv2
 import numpy as np
 
-from core.cameras import CameraSource
-from core.clock import WallClock
+from core.cameras import ClockPacedSource
 from core.messages import SequenceCounter, StereoFrame
 from core.stereo_calibration import BoardSpec, ChessboardSpec
 
@@ -379,7 +378,7 @@ def write_pairs(folder: Union[str, os.PathLike], pairs: Sequence, fmt: str = "pn
 # a camera that shows the board
 
 
-class RenderedBoardCamera(CameraSource):
+class RenderedBoardCamera(ClockPacedSource):
     """A stereo source showing a board held still at each of ``poses`` for ``hold_frames`` frames,
     then moving to the next (a fake camera for the calibration wizard's tests)."""
 
@@ -389,13 +388,12 @@ class RenderedBoardCamera(CameraSource):
                  poses: Optional[Sequence[BoardPose]] = None, n_poses: int = 12, hold_frames: int = 4,
                  fps: float = 30.0, clock=None, seed: int = 0, skew_s: float = 0.0,
                  options: RenderOptions = RenderOptions(), loop: bool = True):
-        super().__init__()
+        super().__init__(clock)
         self.board = board
         self.rig = rig or default_rig()
         self.poses = list(poses) if poses is not None else random_poses(board, self.rig, n_poses, seed=seed)
         self.hold_frames = max(1, int(hold_frames))
         self.fps = float(fps)
-        self.clock = clock or WallClock()
         self.seed = seed
         self.skew_s = float(skew_s)
         self.options = options
@@ -403,7 +401,6 @@ class RenderedBoardCamera(CameraSource):
         self._cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._seq = SequenceCounter()
         self._frame = 0
-        self._connected = False
         self._next = 0.0
 
     @property
@@ -414,16 +411,6 @@ class RenderedBoardCamera(CameraSource):
         self._connected = True
         self._next = self.clock.now()
 
-    def disconnect(self) -> None:
-        self._connected = False
-        self.clock.interrupt()
-
-    def interrupt(self) -> None:
-        self.clock.interrupt()
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
 
     def pose_index(self, frame: int) -> Optional[int]:
         k = frame // self.hold_frames

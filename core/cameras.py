@@ -236,7 +236,28 @@ _SIM_CONTROLS = (  # name, label, min, max, step (CameraSettings fields)
 )
 
 
-class SimStereoCamera(CameraSource):
+class ClockPacedSource(CameraSource):
+    """A source whose frames come on a clock (simulated desk, folders, rendered boards):
+    connected is a flag, and disconnecting wakes a ``read`` blocked on the clock."""
+
+    def __init__(self, clock=None) -> None:
+        super().__init__()
+        self.clock = clock or WallClock()
+        self._connected = False
+
+    def disconnect(self) -> None:
+        self._connected = False
+        self.clock.interrupt()
+
+    def interrupt(self) -> None:
+        self.clock.interrupt()
+
+    @property
+    def is_connected(self) -> bool:
+        return self._connected
+
+
+class SimStereoCamera(ClockPacedSource):
     """The simulated desk seen by the simulated rig, at ``fps`` on the given clock.
 
     ``set_arm_points`` tells the renderer where the arm is (chain points in robot_base), so the
@@ -247,7 +268,7 @@ class SimStereoCamera(CameraSource):
 
     def __init__(self, scenario: str = "static", fps: float = 30.0, clock=None, seed: int = 0,
                  marker_ids=(23, 50), rig=None, **desk_options):
-        super().__init__()
+        super().__init__(clock)
         from core.sim_rig import SimRig
         from core.simdesk import SimDesk
 
@@ -257,9 +278,7 @@ class SimStereoCamera(CameraSource):
         self.desk = SimDesk(self.rig, scenario=scenario, marker_ids=marker_ids, seed=seed, **desk_options)
         self.scenario = scenario
         self.fps = float(fps)
-        self.clock = clock or WallClock()
         self._seq = SequenceCounter()
-        self._connected = False
         self._t0 = 0.0
         self._next = 0.0
         self._arm_points: Optional[np.ndarray] = None
@@ -278,16 +297,6 @@ class SimStereoCamera(CameraSource):
         self._t0 = self.clock.now()
         self._next = self._t0
 
-    def disconnect(self) -> None:
-        self._connected = False
-        self.clock.interrupt()
-
-    def interrupt(self) -> None:
-        self.clock.interrupt()
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
 
     def set_settings(self, settings: CameraSettings) -> None:
         super().set_settings(settings)
@@ -792,23 +801,21 @@ def find_image_pairs(folder) -> list[tuple[Path, Path]]:
     return pairs
 
 
-class FolderStereoCamera(CameraSource):
+class FolderStereoCamera(ClockPacedSource):
     """Saved image pairs played back as a camera, at ``fps``, looping or stopping at the end."""
 
     kind = "folder"
 
     def __init__(self, path, fps: float = 30.0, loop: bool = True, clock=None):
-        super().__init__()
+        super().__init__(clock)
         if not (0.1 <= fps <= 240.0):
             raise ValueError(f"camera fps = {fps} is outside 0.1…240")
         self.path = Path(path)
         self.fps = float(fps)
         self.loop = loop
-        self.clock = clock or WallClock()
         self.pairs: list[tuple[Path, Path]] = []
         self.index = 0  # the next pair to show
         self._seq = SequenceCounter()
-        self._connected = False
         self._next = 0.0
 
     @property
@@ -832,16 +839,6 @@ class FolderStereoCamera(CameraSource):
         self.status_message = ""
         self._next = self.clock.now()
 
-    def disconnect(self) -> None:
-        self._connected = False
-        self.clock.interrupt()
-
-    def interrupt(self) -> None:
-        self.clock.interrupt()
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
 
     def read(self) -> Optional[StereoFrame]:
         import cv2

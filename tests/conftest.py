@@ -1,5 +1,8 @@
 """Shared test set-up: user folders in a temp dir, Qt offscreen."""
 import os
+import shutil
+import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -11,3 +14,15 @@ os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
 def _deskarm_home(tmp_path_factory, monkeypatch):
     """Config and cache folders of a throw-away user, so tests never touch the real ones."""
     monkeypatch.setenv("DESKARM_HOME", str(tmp_path_factory.getbasetemp() / "deskarm_home"))
+
+
+@pytest.fixture(scope="session")
+def host_firmware() -> Path:
+    """Build firmware/host_firmware (the firmware logic on a pseudo-terminal) once per session."""
+    firmware = Path(__file__).resolve().parents[1] / "firmware"
+    if shutil.which("make") is None or shutil.which("gcc") is None:
+        pytest.skip("make and gcc are needed to build firmware/host_firmware")
+    done = subprocess.run(["make", "-s", "-C", str(firmware), "host"], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, f"make -C firmware host failed:\n{done.stdout}\n{done.stderr}"
+    return firmware / "host_firmware"

@@ -11,7 +11,6 @@ import os
 import queue
 import random
 import select
-import shutil
 import subprocess
 import threading
 import time
@@ -33,17 +32,6 @@ ROOT = Path(__file__).resolve().parents[1]
 FIRMWARE = ROOT / "firmware"
 TIMEOUT_S = 3.0  # generous: a loaded CI machine must not fail these
 SILENCE_S = 0.3  # 15 ticks without a PWM line: the ramp has stopped
-
-
-@pytest.fixture(scope="session")
-def host_firmware() -> Path:
-    """Build firmware/host_firmware once per session."""
-    if shutil.which("make") is None or shutil.which("gcc") is None:
-        pytest.skip("make and gcc are needed to build firmware/host_firmware")
-    done = subprocess.run(["make", "-s", "-C", str(FIRMWARE), "host"], capture_output=True, text=True,
-                          timeout=120)
-    assert done.returncode == 0, f"make -C firmware host failed:\n{done.stdout}\n{done.stderr}"
-    return FIRMWARE / "host_firmware"
 
 
 class Board:

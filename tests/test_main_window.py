@@ -4,7 +4,6 @@ Tests wait on the window's own GUI-thread state (set by its queued slots) with
 ``qtbot.waitUntil`` — never ``waitSignal`` on a worker-thread signal: pytest-qt would run its
 callback in the worker thread and race the GUI thread (seen as rare segfaults).
 """
-import numpy as np
 import pytest
 from PySide6 import QtCore
 
