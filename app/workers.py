@@ -66,8 +66,8 @@ class Latest(Generic[T]):
             return self._value, self._version
 
     def wake(self) -> None:
+        """Wake a waiter without a new value (it then re-checks its stop flag)."""
         with self._cond:
-            self._version += 0
             self._cond.notify_all()
 
 

@@ -9,27 +9,18 @@ from __future__ import annotations
 import math
 from typing import Optional, Sequence
 
-import numpy as np
 
+from core.kinematics_base import pose_matrix, rpy_to_matrix
 from core.messages import Goal, JointCommand, SequenceCounter, as_point
 from core.safety import clamp_to_limits, limit_step
 
 CONTROL_RATE_HZ = 50.0
 
 
-def pose_matrix(base_p, rpy) -> np.ndarray:
-    """``base_T_tool`` (4x4) from a position (m) and roll, pitch, yaw (rad), Pinocchio's
-    convention: R = Rz(yaw) · Ry(pitch) · Rx(roll)."""
-    roll, pitch, yaw = (float(a) for a in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw), math.sin(yaw)
-    T = np.eye(4)
-    T[:3, :3] = [
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]
-    T[:3, 3] = np.asarray(base_p, dtype=float).reshape(3)
-    return T
+def goal_pose_matrix(base_p, rpy) -> "np.ndarray":
+    """``oMdes`` the controller solves for: position (m) and roll, pitch, yaw (rad, Pinocchio's
+    R = Rz(yaw) · Ry(pitch) · Rx(roll))."""
+    return pose_matrix(base_p, rpy_to_matrix(*rpy))
 
 
 class ArmController:
@@ -62,7 +53,7 @@ class ArmController:
             return JointCommand(self._seq.next(), t, self.last.q, goal.source_t if goal else None,
                                 self.last.reachable, self.last.reach_error_m, self.last.base_p_target)
         if goal.orientation_rpy is not None and hasattr(self.kinematics, "ik_pose"):
-            ik = self.kinematics.ik_pose(pose_matrix(goal.base_p_target, goal.orientation_rpy), q_ref)
+            ik = self.kinematics.ik_pose(goal_pose_matrix(goal.base_p_target, goal.orientation_rpy), q_ref)
         else:
             ik = self.kinematics.ik(goal.base_p_target, q_ref)
         self.last_ik = ik

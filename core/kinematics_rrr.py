@@ -22,11 +22,11 @@ exactly on the circle arcs that bound the workspace. The hot path uses ``math`` 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np
 
+from .kinematics_base import IKResult, format_distance
 from .robot_profile import ProfileError, RobotProfile
 
 PI = math.pi
@@ -38,19 +38,6 @@ LIMIT_TOL_RAD = 1e-6  # an angle this far outside its limit is snapped onto it, 
 EXACT_TOL_M = 1e-10  # a snapped solution is exact when its FK lands this close to the target
 SAME_BRANCH_RAD = 1e-7  # solutions closer than this in every joint are one branch
 TIE_TOL_M = 1e-12  # nearest points this close in distance are ties, broken by joint distance
-
-
-@dataclass(frozen=True)
-class IKResult:
-    """Answer of an IK solve; never raised as an exception, even when unreachable."""
-
-    q: tuple[float, float, float]  # rad; always within the joint limits
-    success: bool  # reachable and q reaches the target exactly (FK within EXACT_TOL_M)
-    reachable: bool  # the target lies in the workspace (same as success for the analytic solver)
-    error_m: float  # distance from the target to the workspace (m); 0 when reachable, inf if NaN
-    base_p_reached: tuple[float, float, float]  # FK(q) in robot_base: target or nearest point
-    branches: tuple[tuple[float, float, float], ...]  # every in-limit exact solution; () if none
-    message: str = ""  # "" or what went wrong, e.g. "out of reach by 23 mm"
 
 
 def _wrap_pi(a: float) -> float:
@@ -73,15 +60,6 @@ def _wrap_into(a: float, lo: float, hi: float) -> list[tuple[float, bool]]:
             out.append((v, False))
         v += TWO_PI
     return out
-
-
-def _format_mm(error_m: float) -> str:
-    mm = error_m * 1000.0
-    if not math.isfinite(mm) or mm >= 1e6:
-        return f"{error_m:.3g} m"
-    if mm >= 10.0:
-        return f"{mm:.0f} mm"
-    return f"{mm:.2g} mm"
 
 
 class RRRKinematics:
@@ -409,7 +387,7 @@ class RRRKinematics:
             error_m = math.inf
         if error_m <= EXACT_TOL_M:  # on the boundary within rounding: call it reached
             return IKResult(q, True, True, 0.0, reached, (q,), "")
-        return IKResult(q, False, False, error_m, reached, (), f"out of reach by {_format_mm(error_m)}")
+        return IKResult(q, False, False, error_m, reached, (), f"out of reach by {format_distance(error_m)}")
 
     def _clamp1(self, v: float, i: int) -> float:
         return min(max(v, self.q_min[i]), self.q_max[i])

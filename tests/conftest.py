@@ -26,3 +26,15 @@ def host_firmware() -> Path:
                           timeout=120)
     assert done.returncode == 0, f"make -C firmware host failed:\n{done.stdout}\n{done.stderr}"
     return firmware / "host_firmware"
+
+
+@pytest.fixture
+def board(host_firmware):
+    """A running host_firmware (tests/host_board.Board), stopped after the test."""
+    from host_board import Board
+
+    b = Board(host_firmware)
+    try:
+        yield b
+    finally:
+        b.stop()

@@ -11,9 +11,7 @@ import os
 import queue
 import random
 import select
-import subprocess
 import threading
-import time
 import tty
 from dataclasses import replace
 from pathlib import Path
@@ -27,74 +25,10 @@ from core.bridge import BridgeError, SerialV1Bridge, open_bridge
 from core.bridge_v2 import SerialV2Bridge
 from core.messages import JointCommand
 from core.robot_profile import load_profile
+from host_board import TIMEOUT_S, Board  # tests/ is on sys.path (pytest rootdir conftest)
 
 ROOT = Path(__file__).resolve().parents[1]
 FIRMWARE = ROOT / "firmware"
-TIMEOUT_S = 3.0  # generous: a loaded CI machine must not fail these
-SILENCE_S = 0.3  # 15 ticks without a PWM line: the ramp has stopped
-
-
-class Board:
-    """A running host_firmware: its port path and its PWM lines."""
-
-    def __init__(self, exe: Path) -> None:
-        self.proc = subprocess.Popen([str(exe)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        self.lines: "queue.Queue[str]" = queue.Queue()
-        threading.Thread(target=self._read_stdout, daemon=True).start()
-        first = self.lines.get(timeout=TIMEOUT_S)
-        assert first.startswith("PORT "), f"expected 'PORT <path>' first, got {first!r}"
-        self.path = first.split(" ", 1)[1]
-
-    def _read_stdout(self) -> None:
-        for line in self.proc.stdout:
-            self.lines.put(line.rstrip("\n"))
-
-    def next_pwm(self, timeout: float = TIMEOUT_S) -> tuple[int, ...]:
-        try:
-            line = self.lines.get(timeout=timeout)
-        except queue.Empty:
-            raise AssertionError(f"host_firmware printed nothing for {timeout} s") from None
-        assert line.startswith("PWM "), f"unexpected line {line!r}"
-        return tuple(int(x) for x in line.split()[1:])
-
-    def wait_pwm(self, *pulses: int, timeout: float = TIMEOUT_S) -> list[tuple[int, ...]]:
-        """Read PWM lines until one equals ``pulses``; return every PWM line read."""
-        seen: list[tuple[int, ...]] = []
-        deadline = time.monotonic() + timeout
-        while not seen or seen[-1] != pulses:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise AssertionError(f"no 'PWM {pulses}' within {timeout} s; saw {seen}")
-            seen.append(self.next_pwm(left))
-        return seen
-
-    def pwm_until_silent(self, silence: float = SILENCE_S) -> list[tuple[int, ...]]:
-        """Read PWM lines until none arrives for ``silence`` seconds."""
-        seen: list[tuple[int, ...]] = []
-        while True:
-            try:
-                line = self.lines.get(timeout=silence)
-            except queue.Empty:
-                return seen
-            seen.append(tuple(int(x) for x in line.split()[1:]))
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-
-
-@pytest.fixture
-def board(host_firmware) -> Iterator[Board]:
-    b = Board(host_firmware)
-    try:
-        yield b
-    finally:
-        b.stop()
 
 
 @pytest.fixture(scope="module")

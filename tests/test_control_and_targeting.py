@@ -117,7 +117,7 @@ def test_no_goal_sequence_commands_a_joint_outside_its_limits(targets, q_start):
 
 
 def test_pose_goal_uses_the_pose_solver_for_6dof_arms():
-    from core.control import pose_matrix
+    from core.control import goal_pose_matrix
 
     profile = load_profile("umi_rtx")
     kin = build_kinematics(profile)
@@ -126,7 +126,7 @@ def test_pose_goal_uses_the_pose_solver_for_6dof_arms():
     import pinocchio as pin
 
     rpy = pin.rpy.matrixToRpy(T[:3, :3])
-    np.testing.assert_allclose(pose_matrix(T[:3, 3], rpy), T, atol=1e-12)
+    np.testing.assert_allclose(goal_pose_matrix(T[:3, 3], rpy), T, atol=1e-12)
     c = ArmController(profile, kin)
     c.max_step_rad = tuple(10.0 for _ in c.max_step_rad)  # one tick, no rate limit, for the check
     cmd = c.step(Goal(1, 0.0, tuple(T[:3, 3]), TargetMode.MANUAL, orientation_rpy=tuple(rpy)), profile.q_home, 0.0)

@@ -6,117 +6,17 @@ to it exactly as the app talks to a board: with pyserial. Every wait is a read w
 """
 from __future__ import annotations
 
-import queue
 import signal
 import subprocess
-import threading
-import time
 from pathlib import Path
-from typing import Iterator, Optional
 
 import pytest
-import serial
 
 from core import protocol_v2 as p
+from host_board import Board  # tests/ is on sys.path (pytest rootdir conftest)
 
 ROOT = Path(__file__).resolve().parents[1]
 FIRMWARE = ROOT / "firmware"
-TIMEOUT_S = 3.0  # generous: a loaded CI machine must not fail these
-SILENCE_S = 0.3  # 15 ticks without a PWM line: the ramp has stopped
-
-
-class Board:
-    """A running host_firmware: its stdout lines, its port, and helpers to talk to it."""
-
-    def __init__(self, exe: Path, *args: str) -> None:
-        self.proc = subprocess.Popen(
-            [str(exe), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-        )
-        self.lines: "queue.Queue[str]" = queue.Queue()
-        self._reader = threading.Thread(target=self._read_stdout, daemon=True)
-        self._reader.start()
-        self._seq = 0
-        self.ports: list[serial.Serial] = []
-        first = self.next_line()
-        assert first.startswith("PORT "), f"expected 'PORT <path>' first, got {first!r}"
-        self.path = first.split(" ", 1)[1]
-
-    def _read_stdout(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.put(line.rstrip("\n"))
-
-    def next_line(self, timeout: float = TIMEOUT_S) -> str:
-        try:
-            return self.lines.get(timeout=timeout)
-        except queue.Empty:
-            raise AssertionError(f"host_firmware printed nothing for {timeout} s") from None
-
-    def wait_pwm(self, *pulses: int, timeout: float = TIMEOUT_S) -> list[tuple[int, ...]]:
-        """Read PWM lines until one equals ``pulses``; return every PWM line read."""
-        seen: list[tuple[int, ...]] = []
-        deadline = time.monotonic() + timeout
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise AssertionError(f"no 'PWM {pulses}' within {timeout} s; saw {seen}")
-            line = self.next_line(left)
-            assert line.startswith("PWM "), f"unexpected line {line!r}"
-            seen.append(tuple(int(x) for x in line.split()[1:]))
-            if seen[-1] == pulses:
-                return seen
-
-    def pwm_until_silent(self, silence: float = SILENCE_S) -> list[tuple[int, ...]]:
-        """Read PWM lines until none arrives for ``silence`` seconds."""
-        seen: list[tuple[int, ...]] = []
-        while True:
-            try:
-                line = self.lines.get(timeout=silence)
-            except queue.Empty:
-                return seen
-            seen.append(tuple(int(x) for x in line.split()[1:]))
-
-    def open(self) -> serial.Serial:
-        port = serial.Serial(self.path, 9600, timeout=0.05)
-        self.ports.append(port)
-        return port
-
-    def next_seq(self) -> int:
-        self._seq = (self._seq + 1) % 256
-        return self._seq
-
-    def status(self, port: serial.Serial, timeout: float = TIMEOUT_S) -> p.StatusFrame:
-        """PING and return the STATUS reply that echoes its seq."""
-        seq = self.next_seq()
-        port.write(p.encode_ping(seq))
-        dec = p.V2Decoder()
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            for frame in dec.feed(port.read(max(1, port.in_waiting))):
-                if isinstance(frame, p.StatusFrame) and frame.seq == seq:
-                    return frame
-        raise AssertionError(f"no STATUS reply to PING seq {seq} within {timeout} s")
-
-    def stop(self, sig: int = signal.SIGTERM) -> Optional[int]:
-        for port in self.ports:
-            port.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        return self.proc.returncode
-
-
-@pytest.fixture
-def board(host_firmware) -> Iterator[Board]:
-    b = Board(host_firmware)
-    try:
-        yield b
-    finally:
-        b.stop()
 
 
 def test_v1_home_command_gives_pwm_900_1800_1800(board):

@@ -175,12 +175,12 @@ def test_pose_matrix_uses_pinocchios_roll_pitch_yaw():
 
 
 def test_pose_matrix_is_the_one_the_controller_solves_for():
-    from core.control import pose_matrix
+    from core.control import goal_pose_matrix
 
     pose = PoseTarget((0.2, -0.1, 0.4), (-1.1, 0.3, -2.9), 0.01)
     # the controller takes Goal(base_p_target, orientation_rpy=(roll, pitch, yaw)):
     # targeter.set_manual_pose(pose.base_p, pose.rpy, pose.grip_m)
-    assert close(pose_target_to_matrix(pose), pose_matrix(pose.base_p, pose.rpy))
+    assert close(pose_target_to_matrix(pose), goal_pose_matrix(pose.base_p, pose.rpy))
 
 
 def test_a_pose_round_trips_through_umi_rtx_ik_and_fk(umi):

@@ -439,6 +439,21 @@ def _finite_rows(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x[keep], y[keep]
 
 
+def make_legend_label() -> QtWidgets.QLabel:
+    """The legend row under a twin (2D or 3D): small rich text on the plots' black."""
+    label = QtWidgets.QLabel()
+    label.setTextFormat(QtCore.Qt.TextFormat.RichText)
+    # no word wrap (a height-for-width label makes parent layouts over-allocate height);
+    # when narrow the least important entries at the end are cut off instead
+    label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Fixed)
+    font = label.font()
+    font.setPointSizeF(max(7.0, font.pointSizeF() * 0.85))
+    label.setFont(font)
+    # same dark background as the plots, so the plot colours read the same
+    label.setStyleSheet("QLabel { background: black; color: #dddddd; padding: 2px 4px; }")
+    return label
+
+
 class ArmTwin(QtWidgets.QWidget):
     """Top view (x, y) and side view (s, z) of the arm, its target, markers and workspace.
 
@@ -485,18 +500,7 @@ class ArmTwin(QtWidgets.QWidget):
         # The legend is a row of text under the plots rather than a pg.LegendItem: on a small
         # screen an in-plot legend hides the arm, and pyqtgraph's hides a curve when tapped.
         self._measured_label = "measured"
-        self.legend_label = QtWidgets.QLabel()
-        self.legend_label.setTextFormat(QtCore.Qt.TextFormat.RichText)
-        # no word wrap (a height-for-width label makes parent layouts over-allocate height);
-        # when narrow the least important entries at the end are cut off instead
-        self.legend_label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
-                                        QtWidgets.QSizePolicy.Policy.Fixed)
-        font = self.legend_label.font()
-        font.setPointSizeF(max(7.0, font.pointSizeF() * 0.85))
-        self.legend_label.setFont(font)
-        # same dark background as the plots, so the plot colours read the same
-        self.legend_label.setStyleSheet("QLabel { background: black; color: #dddddd;"
-                                        " padding: 2px 4px; }")
+        self.legend_label = make_legend_label()
         self._update_legend()
 
         self._layout = QtWidgets.QBoxLayout(QtWidgets.QBoxLayout.Direction.LeftToRight)

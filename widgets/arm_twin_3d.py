@@ -23,7 +23,7 @@ from widgets.arm_twin import (AIMED_COLOUR, COMMANDED_COLOUR, LEVEL_COLOURS, LEV
                               M_TO_CM, MARKER_COLOUR, MEASURED_COLOUR, PREVIEW_COLOUR,
                               REACHABLE_COLOUR, STRUCTURE_COLOUR, UNREACHABLE_COLOUR,
                               WORKSPACE_COLOUR, arm_azimuth, chain_start_for, joint_anchors_for,
-                              joint_dot_positions, legend_html, normalise_level,
+                              joint_dot_positions, legend_html, make_legend_label, normalise_level,
                               polylines_with_gaps, side_azimuth_for,
                               structure_segments, view_extent, workspace_outlines)
 
@@ -241,15 +241,7 @@ class ArmTwin3D(QtWidgets.QWidget):
                                       self.measured_points, self.joints, self.aimed)):
             item.setDepthValue(depth)
 
-        self.legend_label = QtWidgets.QLabel()
-        self.legend_label.setTextFormat(QtCore.Qt.TextFormat.RichText)
-        self.legend_label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
-                                        QtWidgets.QSizePolicy.Policy.Fixed)
-        font = self.legend_label.font()
-        font.setPointSizeF(max(7.0, font.pointSizeF() * 0.85))
-        self.legend_label.setFont(font)
-        self.legend_label.setStyleSheet("QLabel { background: black; color: #dddddd;"
-                                        " padding: 2px 4px; }")
+        self.legend_label = make_legend_label()
         self.legend_label.setText(legend_html(self._measured_label))
 
         self.buttons: dict[str, QtWidgets.QPushButton] = {}
