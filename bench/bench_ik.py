@@ -4,6 +4,9 @@
 - umi_rtx (CLIK, full pose), assistive_5dof (CLIK, position): cold (no warm start) and warm
   (from the target's joints plus 0.05 rad noise) solves;
 - the UR5-like and Panda-like URDFs of tests/data (CLIK, full pose, cold);
+- umi_rtx and assistive_5dof tracking a moving target at 50 Hz, each solve warm-started from the
+  previous tick's answer — what the control worker does (the targets come from smooth joint
+  paths at up to 60 % of each joint's velocity limit);
 
 each with its success rate, and ikpy (``pip install -e '.[bench]'``) solving the first targets
 of the same set from the middle of the joint ranges (cold) or the same warm start. ikpy counts
@@ -97,6 +100,8 @@ def rows(n: int = 20000) -> list[dict]:
                                    (f"urdf:{DATA / 'ur5_like.urdf'}", "pose", False),
                                    (f"urdf:{DATA / 'panda_like.urdf'}", "pose", False)):
         out += compare_rows(robot, mode, n_clik, n_ikpy if with_ikpy else 0)
+    for robot, mode in (("umi_rtx", "pose"), ("assistive_5dof", "position")):
+        out.append(tracking_row(robot, mode, n_clik))
     return out
 
 
@@ -104,6 +109,8 @@ DATA = Path(__file__).resolve().parent.parent / "tests" / "data"
 IKPY_TOL_M = 1e-4  # ikpy counts as successful within this position error …
 IKPY_TOL_RAD = 1e-3  # … and this orientation error (pose mode)
 WARM_NOISE_RAD = 0.05  # warm starts: the target's joints plus this much Gaussian noise
+TRACK_RATE_HZ = 50.0  # tracking rows: the control worker's tick rate …
+TRACK_SPEED_FRACTION = 0.6  # … and the joint paths' peak speed, as a fraction of each limit
 
 
 def _short(robot: str) -> str:
@@ -254,6 +261,48 @@ def compare_rows(robot: str, mode: str, n: int, n_ikpy: int, seed: int = 3) -> l
         if ikpy_row is not None:
             out.append(ikpy_row)
     return out
+
+
+def tracking_row(robot: str, mode: str, n: int, seed: int = 4) -> dict:
+    """Warm solves along a moving target sampled at 50 Hz, each started from the previous answer.
+
+    The targets are FK of smooth joint paths q_j(t) = mid_j + a_j·sin(2π f_j t + φ_j), with
+    a_j up to 40 % of the joint's range and 2π f_j a_j ≤ TRACK_SPEED_FRACTION · its velocity
+    limit, so every target is reachable and moves as fast as the arm may. A branch change is a
+    solve the previous answer's branch could not reach (after a singularity — a straight elbow —
+    the solver may follow the mirror branch until it meets a joint limit the path avoids).
+    """
+    profile = load_profile(robot)
+    kin = build_kinematics(profile)
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array(profile.q_min), np.array(profile.q_max)
+    vmax = np.array(profile.velocity_limits)
+    amp = rng.uniform(0.2, 0.4, lo.shape) * (hi - lo)
+    omega = TRACK_SPEED_FRACTION * vmax / amp
+    phase = rng.uniform(0.0, 2.0 * np.pi, lo.shape)
+    t = np.arange(n + 1) / TRACK_RATE_HZ
+    qs = 0.5 * (lo + hi) + amp * np.sin(np.outer(t, omega) + phase)
+    if mode == "pose":
+        targets, solve = [kin.fk_pose(q) for q in qs], kin.ik_pose
+    else:
+        targets, solve = [tuple(kin.fk(q)) for q in qs], kin.ik
+    q_prev = tuple(qs[0])
+    times, ok, viol, its, changes = [], 0, 0, [], 0
+    for target in targets[1:]:
+        t0 = time.perf_counter()
+        res = solve(target, q_prev)
+        times.append((time.perf_counter() - t0) * 1e6)
+        q = np.asarray(res.q)
+        viol += int(not (np.all(q >= lo - 1e-12) and np.all(q <= hi + 1e-12)))
+        ok += bool(res.success)
+        its.append(res.iterations)
+        changes += int(res.restarts > 0)
+        q_prev = res.q
+    return {"name": f"CLIK {_short(robot)} {mode}, tracking 50 Hz", "unit": "us", "samples": times,
+            "baseline": None,
+            "extra": (f"warm from the previous tick; success {ok / n * 100:.2f} % of {n},"
+                      f" iterations p50 {np.median(its):.0f}, branch changes {changes},"
+                      f" limit violations {viol}")}
 
 
 if __name__ == "__main__":

@@ -461,13 +461,15 @@ class ClikKinematics:
         """q as an in-limit array: NaN → middle of the range, outside → clamped; None → home."""
         if q is None:
             return np.array(self.q_home)
-        a = np.array(q, dtype=float).reshape(-1)
-        if a.shape[0] != self.n_joints:
-            raise ValueError(f"q has {a.shape[0]} values but {self.profile.name!r} has {self.n_joints} joints")
-        if not math.isfinite(a.sum()):
+        a = np.array(q, dtype=float)
+        if a.shape != self._lo.shape:
+            a = a.reshape(-1)
+            if a.shape[0] != self.n_joints:
+                raise ValueError(f"q has {a.shape[0]} values but {self.profile.name!r} has {self.n_joints} joints")
+        if not math.isfinite(sum(a.tolist())):  # a NaN or an infinity somewhere (or absurd values)
             nan = np.isnan(a)
             a[nan] = self._mid[nan]
-        return np.minimum(np.maximum(a, self._lo), self._hi)
+        return np.maximum(np.minimum(a, self._hi), self._lo)
 
     def _reach_bound(self) -> float:
         """An upper bound of the tool's distance from robot_base's origin (m)."""
@@ -571,10 +573,12 @@ class ClikKinematics:
         d, rng = self._state()
         warm = q_current is not None
         q_start = self._sanitize(q_current)
-        # a sum is finite only when every term is: one check for the whole target
-        if not (math.isfinite(p_des.sum()) and (R_des is None or math.isfinite(R_des.sum()))):
+        x, y, z = p_des.tolist()
+        isfinite = math.isfinite
+        if not (isfinite(x) and isfinite(y) and isfinite(z)
+                and (R_des is None or all(map(isfinite, R_des.ravel().tolist())))):
             return self._result(d, q_start, p_des, R_des, w, False, 0, 0, "target is not finite")
-        beyond = math.sqrt(float(p_des @ p_des)) > self.reach_bound_m  # surely out of reach
+        beyond = math.sqrt(x * x + y * y + z * z) > self.reach_bound_m  # surely out of reach
         starts: list = []
         if warm:
             starts.append(q_start)
@@ -608,7 +612,7 @@ class ClikKinematics:
                 else:
                     q0 = rng.uniform(self._lo, self._hi)
                     from_random = True
-            q, ok, it, E = self._attempt(d, q0, p_des, R_des, w, unit)
+            q, ok, it, E, raw = self._attempt(d, q0, p_des, R_des, w, unit)
             total_it += it
             if ok:
                 msg = ""
@@ -616,7 +620,7 @@ class ClikKinematics:
                     jump = float(np.max(np.abs(q - q_start)))
                     msg = f"solved on another branch: joints jump by up to {jump:.2f}"
                 # d holds q's placement (the last evaluation was the accepted step)
-                return self._result(d, q, p_des, R_des, w, True, total_it, attempt, msg, fresh=True, E=E)
+                return self._converged_result(d, q, E, raw, total_it, attempt, msg)
             if best_q is None or E < best_E * (1.0 - AGREE_REL):
                 best_q, best_E = q, E
                 agree = 1 if from_random else 0
@@ -625,40 +629,38 @@ class ClikKinematics:
                 if agree >= UNREACHABLE_AGREE:
                     break
         # the best attempt stopped when its error stopped halving: polish it into the nearest point
-        q, ok, it, E = self._attempt(d, best_q, p_des, R_des, w, unit, polish=True)
+        q, ok, it, E, _ = self._attempt(d, best_q, p_des, R_des, w, unit, polish=True)
         total_it += it
         return self._result(d, q, p_des, R_des, w, ok, total_it, attempt, "" if ok else None)
 
     def _attempt(self, d, q0, p_des, R_des, w, unit, polish: bool = False):
-        """One damped least-squares descent from ``q0``: (q, success, iterations, error²).
+        """One damped least-squares descent from ``q0``: (q, success, iterations, error², raw).
 
-        Written for speed (this loop is the solver's whole cost): locals only, one Pinocchio
-        call per evaluation, and a closed-form 3×3 solve for position-only problems.
+        ``raw`` = (|p_des − p|², |log3(R_des·Rᵀ)|²) at the returned q, unweighted (0 for the
+        orientation of a position solve). Written for speed — this loop is the solver's whole
+        cost, and a warm solve is two iterations of it: locals only, one Pinocchio call per
+        evaluation, the error and the convergence test in Python floats (NumPy's per-call cost
+        dwarfs six multiplications), NumPy only for the Jacobian algebra, and a closed-form 3×3
+        solve for position problems.
         """
         model, fid, lo, hi = self.model, self._fid, self._lo, self._hi
-        cfj, log3, solve, dot = pin.computeFrameJacobian, pin.log3, _small_solve, np.dot
+        cfj, log3, solve, array = pin.computeFrameJacobian, pin.log3, _small_solve, np.array
         minimum, maximum = np.minimum, np.maximum
         oMf = d.oMf
         pose = R_des is not None
         ne = 6 if pose else 3
         n = self.n_joints
         one_joint = n == 1
-        if unit:
-            w_p = w_r = None
-            sel_p = sel_r = None
-        else:
-            mask_p = w[:3] > 0.0
-            w_p = np.where(mask_p, w[:3], 1.0)
-            sel_p = None if mask_p.all() else mask_p
-            if pose:
-                mask_r = w[3:] > 0.0
-                w_r = np.where(mask_r, w[3:], 1.0)
-                sel_r = None if mask_r.all() else mask_r
+        px, py, pz = p_des.tolist()
+        if not unit:
             wcol = w[:, None]
+            # 1 for an axis that counts towards convergence, 0 for one the caller dropped
+            cx, cy, cz, *c_rot = (1.0 if v > 0.0 else 0.0 for v in w.tolist())
+            crx, cry, crz = c_rot if pose else (0.0, 0.0, 0.0)
         eps_p2, eps_r2 = EPS_POS_M * EPS_POS_M, EPS_ROT_RAD * EPS_ROT_RAD
-        R_des_T = R_des.T if pose else None
+        rx = ry = rz = e2r = 0.0
 
-        q = q0.copy()
+        q = q0
         qn_on_limit = bool(((q <= lo) | (q >= hi)).any())
         on_limit = qn_on_limit
         history = []
@@ -666,6 +668,7 @@ class ClikKinematics:
         mu = 1.0
         J = e = None
         E = math.inf
+        raw = (math.inf, math.inf)
         qn = q
         while True:
             # evaluate qn (the start, or a candidate step)
@@ -673,45 +676,48 @@ class ClikKinematics:
             if one_joint:  # Pinocchio hands a 6×1 Jacobian back as a vector
                 Jn = Jn.reshape(6, 1)
             M = oMf[fid]
+            tx, ty, tz = M.translation.tolist()
+            ex, ey, ez = px - tx, py - ty, pz - tz
+            e2p = ex * ex + ey * ey + ez * ez
             if pose:
-                en = np.empty(6)
-                en[:3] = p_des - M.translation
-                en[3:] = log3(R_des @ M.rotation.T) if R_des_T is not None else 0.0
+                rx, ry, rz = log3(R_des.dot(M.rotation.T)).tolist()
+                e2r = rx * rx + ry * ry + rz * rz
+                en = array((ex, ey, ez, rx, ry, rz))
             else:
-                en = p_des - M.translation
+                en = array((ex, ey, ez))
                 Jn = Jn[:3]
-            if not unit:
+            if unit:
+                En = e2p + e2r
+            else:
                 en *= w
                 Jn = Jn * wcol
-            En = float(dot(en, en))
+                En = float(en.dot(en))
             if En < E:  # accept (always, for the start)
                 q, J, e, E = qn, Jn, en, En
+                raw = (e2p, e2r)
                 on_limit = qn_on_limit
                 mu = max(mu * DAMP_DOWN, 1.0)
-                # converged? each weighted axis' raw error against the tolerance
+                # converged? the raw error of the axes that count, against the tolerances
                 if unit:
-                    ok = dot(e[:3], e[:3]) < eps_p2 and (not pose or dot(e[3:], e[3:]) < eps_r2)
+                    ok = e2p < eps_p2 and e2r < eps_r2
                 else:
-                    ep = e[:3] / w_p
-                    ok = float(dot(ep, ep) if sel_p is None else np.sum(ep[sel_p] ** 2)) < eps_p2
-                    if ok and pose:
-                        er = e[3:] / w_r
-                        ok = float(dot(er, er) if sel_r is None else np.sum(er[sel_r] ** 2)) < eps_r2
+                    ok = (cx * ex * ex + cy * ey * ey + cz * ez * ez < eps_p2
+                          and crx * rx * rx + cry * ry * ry + crz * rz * rz < eps_r2)
                 if ok:
-                    return q, True, it, E
+                    return q, True, it, E, raw
                 if polish:  # nearest point of an unreachable target: run until no progress
                     if history and history[-1] - E <= POLISH_REL_DECREASE * history[-1]:
-                        return q, False, it, E
+                        return q, False, it, E, raw
                 elif (len(history) > STALL_WINDOW and E > STALL_MIN_E
                         and E > STALL_RATIO * history[-STALL_WINDOW - 1]):
-                    return q, False, it, E
+                    return q, False, it, E, raw
                 history.append(E)
             else:
                 mu *= DAMP_UP
                 if mu > MU_MAX:  # no descent direction left inside the limits: a local minimum
-                    return q, False, it, E
+                    return q, False, it, E, raw
             if it >= (POLISH_IT_MAX if polish else IT_MAX):
-                return q, False, it, E
+                return q, False, it, E, raw
             it += 1
             lam = (DAMP_MIN + DAMP_ERR * E) * mu
             # joints held at a limit by the descent direction leave the solve (active set), so
@@ -719,60 +725,53 @@ class ClikKinematics:
             Jf = J
             held = None
             if on_limit:
-                g = e @ J
+                g = e.dot(J)
                 held = ((q <= lo) & (g < 0.0)) | ((q >= hi) & (g > 0.0))
                 if held.all():
-                    return q, False, it, E
+                    return q, False, it, E, raw
                 if held.any():
                     Jf = J[:, ~held]
-            nf = Jf.shape[1]
+                else:
+                    held = None
+            JfT = Jf.T
+            nf = JfT.shape[0]
             if nf < ne:
-                A = Jf.T @ Jf
+                A = JfT.dot(Jf)
                 A.flat[:: nf + 1] += lam
-                dqf = solve(A, Jf.T @ e)
+                dqf = solve(A, JfT.dot(e))
             elif ne == 3:
-                dqf = Jf.T @ _solve3_spd(Jf @ Jf.T, e, lam)
+                dqf = JfT.dot(_solve3_spd(Jf.dot(JfT), e, lam))
             else:
-                A = Jf @ Jf.T
-                A.flat[:: ne + 1] += lam
-                dqf = Jf.T @ solve(A, e)
-            if Jf is J:
-                dq = dqf
+                A = Jf.dot(JfT)
+                A.flat[::7] += lam
+                dqf = JfT.dot(solve(A, e))
+            if held is None:
+                qf = q + dqf if DT == 1.0 else q + DT * dqf
             else:
                 dq = np.zeros(n)
                 dq[~held] = dqf
-            qn = q + dq if DT == 1.0 else q + DT * dq
-            qn_free = qn.copy()
-            minimum(qn, hi, out=qn)
-            maximum(qn, lo, out=qn)
-            qn_on_limit = (held is not None and bool(held.any())) or not (qn == qn_free).all()
+                qf = q + dq if DT == 1.0 else q + DT * dq
+            # clamp into the limits; "on a limit" when the clamp changed anything (bitwise)
+            qn = maximum(minimum(qf, hi), lo)
+            qn_on_limit = held is not None or qn.tobytes() != qf.tobytes()
 
-    def _result(self, d, q, p_des, R_des, w, ok, iterations, restarts, message, fresh=False,
-                E=None) -> IKResult:
-        if fresh and ok and E is not None:
-            # the warm-start hot path: q converged, is in limits, d holds its tip placement and
-            # the target is finite (checked in _solve); E is the weighted squared residual
-            M = d.oMf[self._fid]
-            p = M.translation
-            dp = p_des - p
-            error_m = math.sqrt(float(dp @ dp))
-            error_rad = 0.0
-            if R_des is not None:
-                er = pin.log3(R_des @ M.rotation.T)
-                error_rad = math.sqrt(float(er @ er))
-            qt = tuple(q.tolist())
-            return IKResult(
-                q=qt, success=True, reachable=True, error_m=error_m,
-                base_p_reached=(float(p[0]), float(p[1]), float(p[2])), branches=(qt,),
-                message=message, iterations=int(iterations), residual=math.sqrt(E),
-                error_rad=error_rad, restarts=int(restarts),
-            )
-        if fresh:  # q is in limits and d already holds its tip placement
-            M = d.oMf[self._fid]
-        else:
-            q = np.minimum(np.maximum(np.asarray(q, dtype=float), self._lo), self._hi)
-            pin.forwardKinematics(self.model, d, q)
-            M = pin.updateFramePlacement(self.model, d, self._fid)
+    def _converged_result(self, d, q, E, raw, iterations, restarts, message) -> IKResult:
+        """The answer of a converged attempt (the warm-start hot path, so nothing is recomputed):
+        q is in limits, d holds its tip placement, E is the weighted squared residual and raw
+        the unweighted squared position and orientation errors."""
+        p = tuple(d.oMf[self._fid].translation.tolist())
+        qt = tuple(q.tolist())
+        return IKResult(
+            q=qt, success=True, reachable=True, error_m=math.sqrt(raw[0]), base_p_reached=p,
+            branches=(qt,), message=message, iterations=iterations, residual=math.sqrt(E),
+            error_rad=math.sqrt(raw[1]), restarts=restarts,
+        )
+
+    def _result(self, d, q, p_des, R_des, w, ok, iterations, restarts, message) -> IKResult:
+        """The answer for any q (clamped into the limits), its errors computed afresh."""
+        q = np.minimum(np.maximum(np.asarray(q, dtype=float), self._lo), self._hi)
+        pin.forwardKinematics(self.model, d, q)
+        M = pin.updateFramePlacement(self.model, d, self._fid)
         p = M.translation
         finite = math.isfinite(p_des.sum())
         dp = p_des - p

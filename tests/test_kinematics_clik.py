@@ -331,6 +331,21 @@ def test_five_joints_reach_a_pose_with_the_tool_yaw_left_free(arms):
         assert_close(kin.fk_pose(res.q)[:3, 0], (0, 0, -1), 1e-4, "tool pointing down")
 
 
+def test_scaled_weights_still_converge_on_the_raw_error_and_report_it_unweighted(arms):
+    kin = arms["ur5"]
+    rng = np.random.default_rng(17)
+    for q_true in random_q(kin, 30, 17):
+        T = kin.fk_pose(q_true)
+        q0 = np.clip(q_true + rng.normal(0.0, 0.02, kin.n_joints), kin.q_min, kin.q_max)
+        res = kin.ik_pose(T, q0, weights=(5.0, 0.5, 2.0, 0.2, 3.0, 1.0))
+        assert res.success, res
+        reached = kin.fk_pose(res.q)
+        dist = float(np.linalg.norm(reached[:3, 3] - T[:3, 3]))
+        assert dist < math.sqrt(3) * EPS_POS_M
+        assert res.error_m == pytest.approx(dist, abs=1e-12)
+        assert res.error_rad == pytest.approx(rotation_angle(reached[:3, :3], T[:3, :3]), abs=1e-7)
+
+
 def test_zero_rotation_weights_make_a_position_solve(arms):
     kin = arms["ur5"]
     T = kin.fk_pose(random_q(kin, 1, 16)[0])
