@@ -362,6 +362,9 @@ class ClikKinematics:
         self._lo = np.array(self.q_min, dtype=float)
         self._hi = np.array(self.q_max, dtype=float)
         self._mid = 0.5 * (self._lo + self._hi)
+        # the open interval (lo, hi): q is on a limit exactly when clamping into it changes q
+        self._lo_open = np.nextafter(self._lo, np.inf)
+        self._hi_open = np.nextafter(self._hi, -np.inf)
         self.q_home: tuple[float, ...] = tuple(float(v) for v in np.clip(profile.q_home, self._lo, self._hi))
         self.seed = int(seed)
         self.seed_bank_size = max(0, int(seed_bank_size))
@@ -661,7 +664,7 @@ class ClikKinematics:
         rx = ry = rz = e2r = 0.0
 
         q = q0
-        qn_on_limit = bool(((q <= lo) | (q >= hi)).any())
+        qn_on_limit = maximum(minimum(q, self._hi_open), self._lo_open).tobytes() != q.tobytes()
         on_limit = qn_on_limit
         history = []
         it = 0

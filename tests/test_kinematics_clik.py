@@ -306,6 +306,24 @@ def test_warm_pose_solve_from_nearby_joints_returns_the_same_branch(arms, name):
         assert_close(res.q, q_true, 0.1, f"{name}: warm solve stays on the branch of q_true")
 
 
+@pytest.mark.parametrize("name", ["umi_rtx", "ur5"])
+def test_targets_whose_solution_sits_on_joint_limits_converge_from_starts_on_the_limits(arms, name):
+    kin = arms[name]
+    lo, hi = np.array(kin.q_min), np.array(kin.q_max)
+    rng = np.random.default_rng(23)
+    for q_true in random_q(kin, 40, 23):
+        pinned = rng.choice(kin.n_joints, size=2, replace=False)
+        q_true[pinned[0]], q_true[pinned[1]] = lo[pinned[0]], hi[pinned[1]]
+        T = kin.fk_pose(q_true)
+        # the warm start holds the pinned joints on their limits, the others a little away
+        q0 = np.clip(q_true + rng.normal(0.0, 0.01, kin.n_joints), lo, hi)
+        q0[pinned] = q_true[pinned]
+        res = kin.ik_pose(T, q0)
+        assert res.success and res.restarts == 0, res
+        assert kin.within_limits(res.q)
+        assert_close(kin.fk_pose(res.q), T, 1e-5, f"{name}: pose with joints {pinned} on limits")
+
+
 def test_small_target_moves_give_small_joint_moves_without_elbow_flips(arms):
     kin = arms["umi_rtx"]
     q = kin.ik((0.25, 0.35, 0.3), kin.q_home).q
