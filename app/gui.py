@@ -23,7 +23,7 @@ from app.workers import WorkerSet
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
 from core.stereo import PresetError, delete_preset, disparity_legend, list_presets, load_preset, save_preset
-from widgets._style import TOUCH_PX, touch_button
+from widgets._style import TOUCH_PX, touch_button, touch_scroll_area
 from widgets.arm_twin import ArmTwin, profile_joint_levels
 from widgets.arm_twin_3d import available_3d, make_twin_3d
 from widgets.bridge_picker import BridgePicker
@@ -164,10 +164,9 @@ class MainWindow(QtWidgets.QMainWindow):
             pages.append((self.pose_panel, "Pose"))
         pages += [(self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (robot_page, "Robot")]
         for widget, title in pages:
-            area = QtWidgets.QScrollArea()
-            area.setWidgetResizable(True)
-            area.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
-            area.setWidget(widget)
+            # vertical-only and never narrower than its page, so the splitter leaves the panel
+            # room for it (no sideways scrolling, no clipped buttons at 800x480)
+            area = touch_scroll_area(widget)
             # flick-scroll with a finger on touch screens
             QtWidgets.QScroller.grabGesture(area.viewport(), QtWidgets.QScroller.ScrollerGestureType.TouchGesture)
             self.tabs.addTab(area, title)

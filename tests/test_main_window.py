@@ -101,6 +101,27 @@ def test_window_fits_800x480(window):
     assert hint.width() <= 800 and hint.height() <= 480, hint
 
 
+@pytest.mark.parametrize("robot", ["desk_rrr", "umi_rtx"])
+def test_no_panel_page_is_clipped_or_scrolls_sideways_at_800x480(qtbot, robot):
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static", robot=robot))
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    w.resize(800, 480)
+    w.show()
+    qtbot.waitExposed(w)
+    left = w.splitter.widget(0)
+    assert left.width() >= left.minimumSizeHint().width()  # the camera views keep their room
+    for i in range(w.tabs.count()):
+        w.tabs.setCurrentIndex(i)
+        area = w.tabs.widget(i)
+        qtbot.waitUntil(lambda: area.isVisible())
+        page = area.widget()
+        assert area.horizontalScrollBar().maximum() == 0, w.tabs.tabText(i)
+        assert page.width() >= page.minimumSizeHint().width(), (
+            f"{w.tabs.tabText(i)} page {page.width()} px wide, needs {page.minimumSizeHint().width()}")
+    assert w.tabs.tabBar().sizeHint().width() <= w.tabs.width(), "every tab title visible"
+
+
 def test_estop_stops_commands_until_rearmed(qtbot, window):
     command_with(qtbot, window, lambda cmd, goal: True)
     window.estop_button.engage()
