@@ -36,7 +36,7 @@ def test_delta_profile_is_three_servo_arms_with_the_published_kind_of_geometry(k
     assert p.kind == "delta3" and p.has_servos and p.n_joints == 3
     assert p.q_min == pytest.approx((math.radians(-40),) * 3) and p.q_max == pytest.approx((math.pi / 2,) * 3)
     g = p.geometry
-    assert (g.base_radius_m, g.effector_radius_m, g.upper_arm_m, g.forearm_m) == (0.10, 0.03, 0.10, 0.25)
+    assert (g.base_radius_m, g.effector_radius_m, g.upper_arm_m, g.forearm_m) == (0.10, 0.03, 0.16, 0.30)
 
 
 def test_symmetric_joints_put_the_effector_on_the_axis_at_the_expected_height(kin):
