@@ -12,13 +12,19 @@ from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
 
 
-@pytest.fixture
-def window(qtbot):
-    session = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
+def shown_window(qtbot, robot="desk_rrr"):
+    """The main window for ``robot`` on the static simulated desk, shown at 800x480 (not started)."""
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static", robot=robot))
     w = MainWindow(session)
     qtbot.addWidget(w)
     w.resize(800, 480)
     w.show()
+    return w
+
+
+@pytest.fixture
+def window(qtbot):
+    w = shown_window(qtbot)
     w.start()
     yield w
     w.stop()
@@ -103,11 +109,7 @@ def test_window_fits_800x480(window):
 
 @pytest.mark.parametrize("robot", ["desk_rrr", "umi_rtx"])
 def test_no_panel_page_is_clipped_or_scrolls_sideways_at_800x480(qtbot, robot):
-    session = DeskSession.create(SessionOptions(camera="sim", scenario="static", robot=robot))
-    w = MainWindow(session)
-    qtbot.addWidget(w)
-    w.resize(800, 480)
-    w.show()
+    w = shown_window(qtbot, robot)
     qtbot.waitExposed(w)
     left = w.splitter.widget(0)
     assert left.width() >= left.minimumSizeHint().width()  # the camera views keep their room
@@ -153,11 +155,7 @@ def test_unknown_bridge_url_keeps_the_working_bridge(qtbot, window):
 
 @pytest.mark.parametrize("robot", ["umi_rtx", "delta"])
 def test_any_profile_runs_in_the_window(qtbot, robot):
-    session = DeskSession.create(SessionOptions(camera="sim", scenario="static", robot=robot))
-    w = MainWindow(session)
-    qtbot.addWidget(w)
-    w.resize(800, 480)
-    w.show()
+    w = shown_window(qtbot, robot)
     w.start()
     try:
         qtbot.waitUntil(lambda: w._state is not None and w._result is not None, timeout=5000)
