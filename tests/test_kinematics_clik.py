@@ -15,22 +15,12 @@ from hypothesis import strategies as st
 from core.kinematics_base import IKResult, pose_matrix, rotation_angle, rpy_to_matrix
 from core.kinematics_clik import EPS_POS_M, EPS_ROT_RAD, ClikKinematics, read_urdf_chain
 from core.robot_profile import ProfileError, build_kinematics, load_profile
+from checks import assert_close  # tests/ is on sys.path
 
 DATA = Path(__file__).resolve().parent / "data"
 UR5 = f"urdf:{DATA / 'ur5_like.urdf'}"
 PANDA = f"urdf:{DATA / 'panda_like.urdf'}"
 PI = math.pi
-
-
-def assert_close(actual, expected, tol, what=""):
-    """Fail, printing both values and the gap, when ``actual`` and ``expected`` differ by > tol."""
-    a = np.asarray(actual, dtype=float)
-    e = np.asarray(expected, dtype=float)
-    gap = float(np.max(np.abs(a - e))) if a.size else 0.0
-    assert a.shape == e.shape and gap <= tol, (
-        f"{what}: |actual - expected| = {gap:.3g} > {tol:.3g}\n  actual   = {a.tolist()}\n"
-        f"  expected = {e.tolist()}"
-    )
 
 
 @pytest.fixture(scope="module")

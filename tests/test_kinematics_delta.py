@@ -10,6 +10,7 @@ import tomli_w
 
 from core.kinematics_delta import DeltaKinematics
 from core.robot_profile import ProfileError, build_kinematics, load_profile
+from checks import assert_close  # tests/ is on sys.path
 
 try:
     import tomllib
@@ -17,13 +18,6 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 ROUND_TRIP_TOL_M = 1e-9
-
-
-def assert_close(actual, expected, tol, what=""):
-    a, e = np.asarray(actual, dtype=float), np.asarray(expected, dtype=float)
-    gap = float(np.max(np.abs(a - e))) if a.size else 0.0
-    assert a.shape == e.shape and gap <= tol, (
-        f"{what}: |actual - expected| = {gap:.3g} > {tol:.3g}\n  actual   = {a.tolist()}\n  expected = {e.tolist()}")
 
 
 @pytest.fixture(scope="module")

@@ -12,21 +12,11 @@ from hypothesis import strategies as st
 
 from core.kinematics_rrr import IKResult, RRRKinematics
 from core.robot_profile import build_kinematics, load_profile
+from checks import assert_close  # tests/ is on sys.path
 
 H, L1, L2 = 0.0662, 0.125, 0.090  # desk_rrr geometry (m)
 ROUND_TRIP_TOL_M = 1e-9
 BRUTE_FORCE_TOL_M = 1e-6
-
-
-def assert_close(actual, expected, tol, what=""):
-    """Fail, printing both values and the gap, when ``actual`` and ``expected`` differ by > tol."""
-    a = np.asarray(actual, dtype=float)
-    e = np.asarray(expected, dtype=float)
-    gap = float(np.max(np.abs(a - e))) if a.size else 0.0
-    assert a.shape == e.shape and gap <= tol, (
-        f"{what}: |actual - expected| = {gap:.3g} > {tol:.3g}\n  actual   = {a.tolist()}\n"
-        f"  expected = {e.tolist()}"
-    )
 
 
 def write_profile(folder, name, joints, geometry=(H, L1, L2)):

@@ -454,7 +454,44 @@ def make_legend_label() -> QtWidgets.QLabel:
     return label
 
 
-class ArmTwin(QtWidgets.QWidget):
+class TwinLevelsAndLegend:
+    """Joint-level colouring and the legend's name for the measured arm: the part of the 2D
+    and 3D twins' API that is the same. A subclass sets ``_levels = None`` and
+    ``_measured_label`` and provides ``_draw_joints()`` and ``legend_label``."""
+
+    _levels: Optional[list[str]]
+    _measured_label: str
+
+    def set_joint_levels(self, levels: Optional[Sequence[str]]) -> None:
+        """Colour the measured arm's joint dots: per joint "ok", "warn" (orange) or "limit"
+        (red); None hides them. See :func:`profile_joint_levels`.
+
+        JointReadout's "near"/"at" are accepted too. Without ``configure_for`` joint i's dot is
+        point i of the measured chain (the RRR arm's layout).
+        """
+        new = None if levels is None else [normalise_level(v) for v in levels]
+        if new == self._levels:  # the usual frame: set_arm already moved the dots
+            return
+        self._levels = new
+        self._draw_joints()
+
+    def joint_levels(self) -> Optional[list[str]]:
+        """The levels last set with :meth:`set_joint_levels` (normalised), or None."""
+        return None if self._levels is None else list(self._levels)
+
+    def set_measured_label(self, text: str) -> None:
+        """Rename the measured chain in the legend, e.g. "commanded (no feedback)"."""
+        self._measured_label = text
+        self._update_legend()
+
+    def _update_legend(self) -> None:
+        self.legend_label.setText(legend_html(self._measured_label))
+
+    def _draw_joints(self) -> None:  # pragma: no cover - every twin overrides it
+        raise NotImplementedError
+
+
+class ArmTwin(TwinLevelsAndLegend, QtWidgets.QWidget):
     """Top view (x, y) and side view (s, z) of the arm, its target, markers and workspace.
 
     The side view shows the vertical plane through the base axis at the arm's azimuth (from
@@ -596,27 +633,6 @@ class ArmTwin(QtWidgets.QWidget):
         self._draw_extra(self._side, self._side_xy)
         self._draw_joints()
 
-    def set_joint_levels(self, levels: Optional[Sequence[str]]) -> None:
-        """Colour the measured arm's joint dots: per joint "ok", "warn" (orange) or "limit"
-        (red); None hides them. See :func:`profile_joint_levels`.
-
-        JointReadout's "near"/"at" are accepted too. Without :meth:`configure_for` joint i's
-        dot is point i of the measured chain (the RRR arm's layout).
-        """
-        new = None if levels is None else [normalise_level(v) for v in levels]
-        if new == self._levels:  # the usual frame: set_arm already moved the dots
-            return
-        self._levels = new
-        self._draw_joints()
-
-    def joint_levels(self) -> Optional[list[str]]:
-        """The levels last set with :meth:`set_joint_levels` (normalised), or None."""
-        return None if self._levels is None else list(self._levels)
-
-    def set_measured_label(self, text: str) -> None:
-        """Rename the measured chain in the legend, e.g. "commanded (no feedback)"."""
-        self._measured_label = text
-        self._update_legend()
 
     def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
         """Draw the target point (m) as a cross, green when reachable, red when not."""
@@ -678,9 +694,6 @@ class ArmTwin(QtWidgets.QWidget):
         return [(float(p.pos().x()), float(p.pos().y()), p.data()) for p in item.points()]
 
     # ----------------------------------------------------------------------------- internals
-    def _update_legend(self) -> None:
-        self.legend_label.setText(legend_html(self._measured_label))
-
     def _side_xy(self, points: Optional[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         if points is None or len(points) == 0:
             return np.empty(0), np.empty(0)

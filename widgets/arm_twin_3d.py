@@ -21,9 +21,9 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from widgets._style import touch_button
 from widgets.arm_twin import (AIMED_COLOUR, COMMANDED_COLOUR, LEVEL_COLOURS, LEVEL_DOT_PX,
                               M_TO_CM, MARKER_COLOUR, MEASURED_COLOUR, PREVIEW_COLOUR,
-                              REACHABLE_COLOUR, STRUCTURE_COLOUR, UNREACHABLE_COLOUR,
+                              REACHABLE_COLOUR, STRUCTURE_COLOUR, UNREACHABLE_COLOUR, TwinLevelsAndLegend,
                               WORKSPACE_COLOUR, arm_azimuth, chain_start_for, joint_anchors_for,
-                              joint_dot_positions, legend_html, make_legend_label, normalise_level,
+                              joint_dot_positions, make_legend_label,
                               polylines_with_gaps, side_azimuth_for,
                               structure_segments, view_extent, workspace_outlines)
 
@@ -150,7 +150,7 @@ def _plane_points(sz_m: np.ndarray, azimuth_rad: float) -> np.ndarray:
     return np.column_stack([sz[:, 0] * c, sz[:, 0] * s, sz[:, 1]])
 
 
-class ArmTwin3D(QtWidgets.QWidget):
+class ArmTwin3D(TwinLevelsAndLegend, QtWidgets.QWidget):
     """A 3D view of the arm on the desk: the same inputs and calls as ``ArmTwin``.
 
     Drag to orbit; the buttons (finger-sized) reset the view, look from the top or the side,
@@ -242,7 +242,7 @@ class ArmTwin3D(QtWidgets.QWidget):
             item.setDepthValue(depth)
 
         self.legend_label = make_legend_label()
-        self.legend_label.setText(legend_html(self._measured_label))
+        self._update_legend()
 
         self.buttons: dict[str, QtWidgets.QPushButton] = {}
         column = QtWidgets.QVBoxLayout()
@@ -335,22 +335,6 @@ class ArmTwin3D(QtWidgets.QWidget):
         joined = polylines_with_gaps(self._extra_chains)
         self.extra.setData(pos=segment_pairs(None if joined is None else joined * M_TO_CM))
         self._draw_joints()
-
-    def set_joint_levels(self, levels: Optional[Sequence[str]]) -> None:
-        """Colour the joint dots: "ok", "warn" (orange), "limit" (red) per joint; None hides."""
-        new = None if levels is None else [normalise_level(v) for v in levels]
-        if new != self._levels:  # unchanged: set_arm already moved the dots
-            self._levels = new
-            self._draw_joints()
-
-    def joint_levels(self) -> Optional[list[str]]:
-        """The levels last set with :meth:`set_joint_levels` (normalised), or None."""
-        return None if self._levels is None else list(self._levels)
-
-    def set_measured_label(self, text: str) -> None:
-        """Rename the measured chain in the legend, e.g. "commanded (no feedback)"."""
-        self._measured_label = text
-        self.legend_label.setText(legend_html(text))
 
     def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
         """Draw the target point (m), green when reachable, red when not."""
