@@ -727,8 +727,19 @@ def _make_app() -> QtWidgets.QApplication:
     return app
 
 
+def fit_window_size(requested: tuple[int, int], available: tuple[int, int]) -> tuple[tuple[int, int], bool]:
+    """(size, maximise) for a window asked to be ``requested`` on a screen whose free area is
+    ``available``: never larger than the screen (the STOP button must stay on it), and
+    maximised when it does not fit — a 1280x800 default on an 800x480 touch display."""
+    (rw, rh), (aw, ah) = requested, available
+    if aw <= 0 or ah <= 0:  # no screen geometry known
+        return (rw, rh), False
+    fits = rw <= aw and rh <= ah
+    return (min(rw, aw), min(rh, ah)), not fits
+
+
 def run_window(options: SessionOptions, size: tuple[int, int]) -> int:
-    """Open the window and run until it is closed."""
+    """Open the window and run until it is closed (fitted to the screen it opens on)."""
     app = _make_app()
     try:
         session = DeskSession.create(options)
@@ -736,9 +747,16 @@ def run_window(options: SessionOptions, size: tuple[int, int]) -> int:
         QtWidgets.QMessageBox.critical(None, "deskarm could not start", str(exc))
         return 1
     window = MainWindow(session)
-    window.resize(*size)
+    screen = app.primaryScreen()
+    free = screen.availableGeometry() if screen is not None else QtCore.QRect()
+    fitted, maximise = fit_window_size(size, (free.width(), free.height()))
+    window.resize(*fitted)
     app.aboutToQuit.connect(window.stop)
-    window.show()
+    if maximise:
+        window.move(free.topLeft())  # where no window manager maximises (a bare X server)
+        window.showMaximized()
+    else:
+        window.show()
     window.start()
     return app.exec()
 

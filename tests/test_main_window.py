@@ -7,7 +7,7 @@ callback in the worker thread and race the GUI thread (seen as rare segfaults).
 import pytest
 from PySide6 import QtCore
 
-from app.gui import MainWindow
+from app.gui import MainWindow, fit_window_size
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
 
@@ -99,6 +99,17 @@ def test_disparity_is_computed_only_while_shown(qtbot, window):
     with qtbot.waitSignal(window.view_left.sigDisplayModeChanged, timeout=1000):
         window.view_left.toggle_button.click()
     first_result_with(qtbot, window, lambda r: r.disparity is None)
+
+
+@pytest.mark.parametrize("requested, available, expected", [
+    ((1280, 800), (1920, 1050), ((1280, 800), False)),  # a desktop: the size asked for
+    ((1280, 800), (800, 480), ((800, 480), True)),  # the Pi touch display: maximised, on screen
+    ((1280, 800), (1024, 570), ((1024, 570), True)),  # a netbook with a panel
+    ((800, 480), (800, 480), ((800, 480), False)),
+    ((1280, 800), (0, 0), ((1280, 800), False)),  # no screen geometry: as asked
+])
+def test_the_window_never_opens_larger_than_the_screen(requested, available, expected):
+    assert fit_window_size(requested, available) == expected
 
 
 def test_window_fits_800x480(window):
