@@ -116,6 +116,7 @@ def test_each_arms_lissajous_stays_inside_its_workspace_within_its_joint_speeds(
     for p in pts:  # every point solved, warm-started along the curve like the control loop
         res = kin.ik(tuple(p), q)
         assert res.success, f"{name}: Lissajous point {p} out of reach: {res.message}"
+        assert res.restarts == 0, f"{name}: branch change at {p}: {res.message}"  # no jumps
         q = res.q
     # streamed at 50 Hz from the curve's start, the commands respect limits and speeds
     start = kin.ik(params.point(0.0), kin.q_home).q
