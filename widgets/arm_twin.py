@@ -454,10 +454,11 @@ def make_legend_label() -> QtWidgets.QLabel:
     return label
 
 
-class TwinLevelsAndLegend:
-    """Joint-level colouring and the legend's name for the measured arm: the part of the 2D
-    and 3D twins' API that is the same. A subclass sets ``_levels = None`` and
-    ``_measured_label`` and provides ``_draw_joints()`` and ``legend_label``."""
+class TwinBase:
+    """The part of the 2D and 3D twins' API that is the same: target and aimed point, joint-level
+    colouring and the legend's name for the measured arm. A subclass sets ``_levels = None``
+    and ``_measured_label``, and provides ``legend_label``, ``_colour_target``,
+    ``_draw_target`` and ``_draw_joints``."""
 
     _levels: Optional[list[str]]
     _measured_label: str
@@ -487,11 +488,29 @@ class TwinLevelsAndLegend:
     def _update_legend(self) -> None:
         self.legend_label.setText(legend_html(self._measured_label))
 
+    def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
+        """Draw the target point (m), green when reachable, red when not."""
+        self._target = None if p is None else np.asarray(p, dtype=float).reshape(3)
+        self._reachable = bool(reachable)
+        self._colour_target(REACHABLE_COLOUR if reachable else UNREACHABLE_COLOUR)
+        self._draw_target()
+
+    def set_aimed_point(self, p: Optional[Sequence[float]]) -> None:
+        """Draw the point actually aimed at (nearest reachable), linked to the target."""
+        self._aimed = None if p is None else np.asarray(p, dtype=float).reshape(3)
+        self._draw_target()
+
+    def _colour_target(self, colour: str) -> None:  # pragma: no cover - every twin overrides
+        raise NotImplementedError
+
+    def _draw_target(self) -> None:  # pragma: no cover - every twin overrides it
+        raise NotImplementedError
+
     def _draw_joints(self) -> None:  # pragma: no cover - every twin overrides it
         raise NotImplementedError
 
 
-class ArmTwin(TwinLevelsAndLegend, QtWidgets.QWidget):
+class ArmTwin(TwinBase, QtWidgets.QWidget):
     """Top view (x, y) and side view (s, z) of the arm, its target, markers and workspace.
 
     The side view shows the vertical plane through the base axis at the arm's azimuth (from
@@ -634,19 +653,10 @@ class ArmTwin(TwinLevelsAndLegend, QtWidgets.QWidget):
         self._draw_joints()
 
 
-    def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
-        """Draw the target point (m) as a cross, green when reachable, red when not."""
-        self._target = None if p is None else np.asarray(p, dtype=float).reshape(3)
-        self._reachable = bool(reachable)
-        pen = pg.mkPen(REACHABLE_COLOUR if reachable else UNREACHABLE_COLOUR, width=3)
+    def _colour_target(self, colour: str) -> None:
+        pen = pg.mkPen(colour, width=3)  # a cross in both views
         self._top.target.setPen(pen)
         self._side.target.setPen(pen)
-        self._draw_target()
-
-    def set_aimed_point(self, p: Optional[Sequence[float]]) -> None:
-        """Draw the point actually aimed at (nearest reachable), linked to the target."""
-        self._aimed = None if p is None else np.asarray(p, dtype=float).reshape(3)
-        self._draw_target()
 
     def set_workspace(self, top_outline: Optional[np.ndarray],
                       side_outline: Optional[np.ndarray]) -> None:

@@ -21,7 +21,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from widgets._style import touch_button
 from widgets.arm_twin import (AIMED_COLOUR, COMMANDED_COLOUR, LEVEL_COLOURS, LEVEL_DOT_PX,
                               M_TO_CM, MARKER_COLOUR, MEASURED_COLOUR, PREVIEW_COLOUR,
-                              REACHABLE_COLOUR, STRUCTURE_COLOUR, UNREACHABLE_COLOUR, TwinLevelsAndLegend,
+                              REACHABLE_COLOUR, STRUCTURE_COLOUR, TwinBase,
                               WORKSPACE_COLOUR, arm_azimuth, chain_start_for, joint_anchors_for,
                               joint_dot_positions, make_legend_label,
                               polylines_with_gaps, side_azimuth_for,
@@ -150,7 +150,7 @@ def _plane_points(sz_m: np.ndarray, azimuth_rad: float) -> np.ndarray:
     return np.column_stack([sz[:, 0] * c, sz[:, 0] * s, sz[:, 1]])
 
 
-class ArmTwin3D(TwinLevelsAndLegend, QtWidgets.QWidget):
+class ArmTwin3D(TwinBase, QtWidgets.QWidget):
     """A 3D view of the arm on the desk: the same inputs and calls as ``ArmTwin``.
 
     Drag to orbit; the buttons (finger-sized) reset the view, look from the top or the side,
@@ -336,17 +336,8 @@ class ArmTwin3D(TwinLevelsAndLegend, QtWidgets.QWidget):
         self.extra.setData(pos=segment_pairs(None if joined is None else joined * M_TO_CM))
         self._draw_joints()
 
-    def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
-        """Draw the target point (m), green when reachable, red when not."""
-        self._target = None if p is None else np.asarray(p, dtype=float).reshape(3)
-        self.target.setData(color=_rgba(REACHABLE_COLOUR if reachable else UNREACHABLE_COLOUR))
-        self._reachable = bool(reachable)
-        self._draw_target()
-
-    def set_aimed_point(self, p: Optional[Sequence[float]]) -> None:
-        """Draw the point actually aimed at (nearest reachable), linked to the target."""
-        self._aimed = None if p is None else np.asarray(p, dtype=float).reshape(3)
-        self._draw_target()
+    def _colour_target(self, colour: str) -> None:
+        self.target.setData(color=_rgba(colour))
 
     def set_workspace(self, top_outline: Optional[np.ndarray],
                       side_outline: Optional[np.ndarray]) -> None:
