@@ -28,6 +28,7 @@ run: $(STAMP)
 	fi
 
 test: $(STAMP) firmware-test
+	$(VENV)/bin/lint-imports --no-logo --no-cache
 	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
 
 firmware-test:

@@ -29,12 +29,25 @@ import cv2
 import numpy as np
 from PySide6 import QtCore, QtWidgets
 
-from core.calibration import StereoCalibration, export_ros_camera_info, install_calibration
 from core.messages import StereoFrame
-from core.session import user_dir
-from core.stereo_calibration import (BoardSpec, CalibrationFailed, CalibrationReport, CalibrationSession,
-                                     Coverage, GateResult, PairDetection, draw_detection, rectified_preview,
-                                     suggest_board)
+from core.paths import user_dir
+from core.vision.calibration import (
+    StereoCalibration,
+    export_ros_camera_info,
+    install_calibration,
+)
+from core.vision.stereo_calibration import (
+    BoardSpec,
+    CalibrationFailed,
+    CalibrationReport,
+    CalibrationSession,
+    Coverage,
+    GateResult,
+    PairDetection,
+    draw_detection,
+    rectified_preview,
+    suggest_board,
+)
 
 LIVE_MAX_WIDTH = 640  # overlays wider than this are shrunk in the worker (the GUI only scales them)
 LIVE_MIN_INTERVAL_S = 0.05  # at most ~20 detections a second: leaves CPU for perception on a Pi
@@ -478,7 +491,7 @@ class CalibrationController(QtCore.QObject):
 
 
 def _reloaded(path: Path, fallback: StereoCalibration) -> StereoCalibration:
-    from core.calibration import CalibrationError, load_calibration
+    from core.vision.calibration import CalibrationError, load_calibration
 
     try:
         return load_calibration(path, expected_size=fallback.image_size)

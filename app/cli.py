@@ -9,9 +9,9 @@ import argparse
 import os
 import sys
 
-from core.bridge import BRIDGE_CHOICES
-from core.cameras import CAMERA_CHOICES
+from core.devices.bridge import BRIDGE_CHOICES
 from core.session import SCENARIOS, SessionOptions
+from core.vision.cameras import CAMERA_CHOICES
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -22,7 +22,7 @@ EARLY_CHECK_PAIRS = 4  # when none of the first pairs shows the board, look for 
 
 
 def build_parser(prog: str = "deskarm calibrate") -> argparse.ArgumentParser:
-    from core.stereo_calibration import BOARD_FORMS, DISTORTION_MODELS
+    from core.vision.stereo_calibration import BOARD_FORMS, DISTORTION_MODELS
 
     p = argparse.ArgumentParser(
         prog=prog,
@@ -65,7 +65,7 @@ def _expand(pattern: str) -> list[Path]:
 
 def _collect_pairs(args) -> tuple[list[tuple[Path, Path]], list[str]]:
     """(pairs, warnings) from --left/--right globs or --folder; ValueError when nothing usable."""
-    from core.cameras import IMAGE_SUFFIXES, find_image_pairs, pair_image_files
+    from core.vision.cameras import IMAGE_SUFFIXES, find_image_pairs, pair_image_files
 
     warnings: list[str] = []
     if args.folder:
@@ -99,10 +99,21 @@ def run(command: str, argv: list[str]) -> int:
     args = build_parser(f"deskarm {command}").parse_args(argv)
     import cv2
 
-    from core.calibration import export_ros_camera_info, install_calibration, save_calibration
-    from core.stereo_calibration import (
-        BoardError, CalibrationFailed, CalibrationOptions, DetectOptions, calibrate_stereo, detect_pair,
-        parse_board, read_session_board, suggest_board,
+    from core.vision.calibration import (
+        export_ros_camera_info,
+        install_calibration,
+        save_calibration,
+    )
+    from core.vision.stereo_calibration import (
+        BoardError,
+        CalibrationFailed,
+        CalibrationOptions,
+        DetectOptions,
+        calibrate_stereo,
+        detect_pair,
+        parse_board,
+        read_session_board,
+        suggest_board,
     )
 
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
@@ -131,7 +142,7 @@ def run(command: str, argv: list[str]) -> int:
     # -- detection ---------------------------------------------------------------------------
     detect_options = DetectOptions(use_sb=not args.no_sb)
     detections, names, sample_images = [], [], []
-    from core.stereo_calibration import BoardDetection, PairDetection
+    from core.vision.stereo_calibration import BoardDetection, PairDetection
 
     for k, (lp, rp) in enumerate(pairs, start=1):
         left, right = cv2.imread(str(lp)), cv2.imread(str(rp))

@@ -69,7 +69,7 @@ def _numbers(text: str, what: str) -> list[float]:
 
 
 def _load(robot: str, tip: Optional[str]):
-    from core.robot_profile import build_kinematics, load_profile
+    from core.kinematics import build_kinematics, load_profile
 
     profile = load_profile(robot, tip=tip)
     return profile, build_kinematics(profile)
@@ -86,7 +86,7 @@ def _joints_out(profile, q) -> list[dict]:
 def run_ik(argv: list[str], out=None, err=None) -> int:
     out, err = out or sys.stdout, err or sys.stderr
     args = build_ik_parser().parse_args(argv)
-    from core.kinematics_base import pose_matrix, rpy_to_matrix
+    from core.kinematics.base import pose_matrix, rpy_to_matrix
 
     try:
         target = _numbers(args.target, "--target")

@@ -22,7 +22,14 @@ from app.calibration_worker import CalibrationController
 from app.workers import WorkerSet
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions
-from core.stereo import PresetError, delete_preset, disparity_legend, list_presets, load_preset, save_preset
+from core.vision.disparity import (
+    PresetError,
+    delete_preset,
+    disparity_legend,
+    list_presets,
+    load_preset,
+    save_preset,
+)
 from widgets._style import TOUCH_PX, touch_button, touch_scroll_area
 from widgets.arm_twin import ArmTwin, profile_joint_levels
 from widgets.arm_twin_3d import available_3d, make_twin_3d
@@ -33,8 +40,8 @@ from widgets.device_controls import DeviceControlsPanel
 from widgets.estop import EStopButton
 from widgets.joint_readout import JointReadout
 from widgets.pose_panel import PosePanel, pose_panel_applies, pose_target_from_matrix
-from widgets.stereo_panel import StereoPanel
 from widgets.status import Banner, StatusBarItems
+from widgets.stereo_panel import StereoPanel
 from widgets.target_panel import TargetPanel
 
 REDRAW_INTERVAL_MS = 33  # ~30 Hz display rate
@@ -691,7 +698,7 @@ def joint_display_values(profile, q) -> list[float]:
 def list_port_choices() -> list[tuple[str, str]]:
     """(label, path) for each serial port, stable names first (empty if listing fails)."""
     try:
-        from core.serial_ports import list_ports, preferred_name
+        from core.devices.ports import list_ports, preferred_name
     except ImportError:
         return []
     out = []

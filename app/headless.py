@@ -83,7 +83,7 @@ def command_outside_limits(sent, cmd, bridge, profile) -> bool:
     other arms: the joint values the bridge commanded."""
     if getattr(profile, "has_servos", True):
         return servo_deg_outside_limits(sent, profile)
-    from core.safety import is_within_limits
+    from core.motion.safety import is_within_limits
 
     q_sent = getattr(bridge, "last_sent_q", None) or cmd.q
     return not is_within_limits(q_sent, profile)

@@ -27,14 +27,14 @@ from typing import Generic, Optional, TypeVar
 
 from PySide6 import QtCore
 
-from core.bridge import BridgeError
-from core.calibration_health import CalibrationHealth
-from core.cameras import CameraError
+from core.devices.bridge import BridgeError
 from core.messages import TargetMode
-from core.perception import StereoMarkerPerception
 from core.session import DeskSession
 from core.settings import SgbmParams, StereoMatchParams
-from core.stereo import DisparityComputer
+from core.vision.calibration_health import CalibrationHealth
+from core.vision.cameras import CameraError
+from core.vision.disparity import DisparityComputer
+from core.vision.perception import StereoMarkerPerception
 
 HEALTH_REPEAT_S = 1.0  # while drifted, the banner's numbers are refreshed at most this often
 
@@ -357,7 +357,7 @@ class BridgeWorker(_LoopThread):
             url, self._bridge_request = self._bridge_request, None
         s = self.session
         if url is not None:
-            from core.bridge import open_bridge
+            from core.devices import open_bridge
 
             try:
                 new = open_bridge(url, s.profile, clock=s.clock)

@@ -7,12 +7,12 @@ import time
 
 import numpy as np
 
-from core.board_render import default_rig, render_set
 from core.settings import SgbmParams, StereoMatchParams
-from core.sim_rig import SimRig, SimRigConfig
-from core.simdesk import SimDesk
-from core.stereo import DisparityComputer
-from core.stereo_calibration import ChessboardSpec, calibrate_stereo, detect_pair
+from core.sim.board_render import default_rig, render_set
+from core.sim.desk import SimDesk
+from core.sim.rig import SimRig, SimRigConfig
+from core.vision.disparity import DisparityComputer
+from core.vision.stereo_calibration import ChessboardSpec, calibrate_stereo, detect_pair
 
 SIZES = ((544, 288), (640, 480))
 DISTANCE_M = 0.50

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.robot_profile import build_kinematics, load_profile
+from core.kinematics import build_kinematics, load_profile
 
 FK_NAME = "FK desk_rrr"
 IK_NAME = "analytic IK desk_rrr"

@@ -11,9 +11,14 @@ import time
 import cv2
 import numpy as np
 
-from core.perception import StereoMarkerPerception, detect_markers, make_detector, quad_centre
-from core.sim_rig import SimRig
-from core.simdesk import SimDesk
+from core.sim.desk import SimDesk
+from core.sim.rig import SimRig
+from core.vision.perception import (
+    StereoMarkerPerception,
+    detect_markers,
+    make_detector,
+    quad_centre,
+)
 
 
 class NaiveStereoPerception:

@@ -9,8 +9,8 @@ import time
 
 import numpy as np
 
-from core.sim_rig import SimRig
-from core.simdesk import SimDesk
+from core.sim.desk import SimDesk
+from core.sim.rig import SimRig
 
 # base → shoulder → elbow → tool, robot_base (m): the arm reaching over the cups
 ARM_POINTS = np.array([(0.0, 0.0, 0.0), (0.0, 0.0, 0.066), (0.0, 0.06, 0.17), (0.0, 0.15, 0.12)])

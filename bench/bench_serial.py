@@ -19,11 +19,11 @@ import threading
 import time
 from pathlib import Path
 
-from core.bridge import SerialV1Bridge
-from core.bridge_v2 import SerialV2Bridge
 from core.clock import SimClock
+from core.devices.serial_v1 import SerialV1Bridge
+from core.devices.serial_v2 import SerialV2Bridge
+from core.kinematics.profile import load_profile
 from core.messages import JointCommand
-from core.robot_profile import load_profile
 
 ROOT = Path(__file__).resolve().parents[1]
 FIRMWARE = ROOT / "firmware"

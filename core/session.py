@@ -5,36 +5,30 @@ headless metrics measure is what the window shows.
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-from core.bridge import MotorBridge, open_bridge, parse_bridge_url
-from core.calibration import CalibrationError, StereoCalibration, load_calibration, save_calibration
-from core.cameras import CameraSource, open_camera, parse_camera_spec
 from core.clock import SimClock, WallClock
-from core.control import ArmController
+from core.devices import open_bridge
+from core.devices.bridge import MotorBridge, parse_bridge_url
+from core.kinematics import build_kinematics, load_profile
 from core.messages import TargetMode
-from core.perception import StereoMarkerPerception
-from core.robot_profile import build_kinematics, load_profile
-from core.targeting import BallFinder, Targeter
+from core.motion.control import ArmController
+from core.motion.targeting import BallFinder, Targeter
+from core.paths import user_dir
+from core.vision.calibration import (
+    CalibrationError,
+    StereoCalibration,
+    load_calibration,
+    save_calibration,
+)
+from core.vision.cameras import CameraSource, open_camera, parse_camera_spec
+from core.vision.perception import StereoMarkerPerception
 
 SCENARIOS = ("static", "cups", "wander")
-
-
-def user_dir(kind: str) -> Path:
-    """Per-user config or cache folder (``DESKARM_HOME`` overrides, e.g. in tests)."""
-    root = os.environ.get("DESKARM_HOME")
-    if root:
-        return Path(root) / kind
-    import platformdirs
-
-    if kind == "config":
-        return Path(platformdirs.user_config_dir("deskarm"))
-    return Path(platformdirs.user_cache_dir("deskarm"))
 
 
 @dataclass
@@ -89,7 +83,7 @@ class DeskSession:
             banners.append(note)
         base_T_camera = camera.base_T_camera()
         if base_T_camera is None:
-            from core.sim_rig import SimRig
+            from core.sim.rig import SimRig
 
             base_T_camera = SimRig().base_T_camera  # nominal mount until a hand-eye step exists
         perception = StereoMarkerPerception(calibration, base_T_camera, marker_ids=options.marker_ids)
@@ -118,7 +112,7 @@ def lissajous_for(profile, kinematics):
 
     if profile.name == "desk_rrr":
         return LissajousParams()
-    from core.trajectory import default_lissajous
+    from core.motion.trajectory import default_lissajous
 
     try:
         return default_lissajous(kinematics, profile.name)
@@ -143,7 +137,7 @@ def load_session_calibration(camera: CameraSource, path: Optional[str]) -> tuple
         calib = load_calibration(candidate, expected_size=size)
         return calib, "; ".join(calib.notes)
     except CalibrationError as exc:
-        from core.sim_rig import SimRig, SimRigConfig
+        from core.sim.rig import SimRig, SimRigConfig
 
         w, h = size or (640, 480)
         nominal = SimRig(SimRigConfig(width=w, height=h, focal_px=430.0 * w / 640.0)).calibration()

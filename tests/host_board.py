@@ -11,7 +11,7 @@ from typing import Optional
 
 import serial
 
-from core import protocol_v2 as p
+from core.devices import protocol_v2 as p
 
 TIMEOUT_S = 3.0  # generous: a loaded CI machine must not fail these
 SILENCE_S = 0.3  # 15 ticks without a PWM line: the ramp has stopped

@@ -19,13 +19,30 @@ import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from widgets._style import touch_button
-from widgets.arm_twin import (AIMED_COLOUR, COMMANDED_COLOUR, LEVEL_COLOURS, LEVEL_DOT_PX,
-                              M_TO_CM, MARKER_COLOUR, MEASURED_COLOUR, PREVIEW_COLOUR,
-                              REACHABLE_COLOUR, STRUCTURE_COLOUR, TwinBase,
-                              WORKSPACE_COLOUR, arm_azimuth, chain_start_for, joint_anchors_for,
-                              joint_dot_positions, make_legend_label,
-                              polylines_with_gaps, side_azimuth_for,
-                              structure_segments, view_extent, workspace_outlines)
+from widgets.arm_twin import (
+    AIMED_COLOUR,
+    COMMANDED_COLOUR,
+    LEVEL_COLOURS,
+    LEVEL_DOT_PX,
+    M_TO_CM,
+    MARKER_COLOUR,
+    MEASURED_COLOUR,
+    PREVIEW_COLOUR,
+    REACHABLE_COLOUR,
+    STRUCTURE_COLOUR,
+    WORKSPACE_COLOUR,
+    TwinBase,
+    arm_azimuth,
+    chain_start_for,
+    joint_anchors_for,
+    joint_dot_positions,
+    make_legend_label,
+    polylines_with_gaps,
+    side_azimuth_for,
+    structure_segments,
+    view_extent,
+    workspace_outlines,
+)
 
 NO_GL_PLATFORMS = frozenset({"offscreen", "minimal", "linuxfb", "vnc", "bsdfb", "vkkhrdisplay"})
 DISABLE_ENV = "DESKARM_NO_3D"  # set (non-empty) to keep the 2D twin even where OpenGL works

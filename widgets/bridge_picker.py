@@ -27,7 +27,7 @@ class BridgePicker(QtWidgets.QWidget):
     """A port list (editable: a typed path such as /dev/pts/5 is accepted), a protocol
     choice, Connect and Use-simulated-arm buttons, and a status line.
 
-    ``list_ports`` is a callable returning (label, path) pairs — core.serial_ports in the app.
+    ``list_ports`` is a callable returning (label, path) pairs — core.devices.ports in the app.
 
     Signals:
     - sigConnectRequested(str): the bridge URL the user asked for.

@@ -24,10 +24,24 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
-from core.stereo_calibration import (ARUCO_DICTIONARY_NAMES, BoardError, BoardSpec, ChessboardSpec, CharucoSpec,
-                                     Coverage, rms_verdict)
-from widgets._style import (ACCENT_COLOUR, ERROR_COLOUR, OK_COLOUR, TOUCH_PX, WARN_COLOUR, TouchDoubleSpinBox,
-                            touch_button)
+from core.vision.stereo_calibration import (
+    ARUCO_DICTIONARY_NAMES,
+    BoardError,
+    BoardSpec,
+    CharucoSpec,
+    ChessboardSpec,
+    Coverage,
+    rms_verdict,
+)
+from widgets._style import (
+    ACCENT_COLOUR,
+    ERROR_COLOUR,
+    OK_COLOUR,
+    TOUCH_PX,
+    WARN_COLOUR,
+    TouchDoubleSpinBox,
+    touch_button,
+)
 
 PAGES = ("board", "capture", "results")
 METERS = (("x", "X"), ("y", "Y"), ("size", "Size"), ("skew", "Skew"))
@@ -60,7 +74,7 @@ def coverage_hint(cov: Coverage) -> str:
 
 def board_picture(board: BoardSpec, px_per_square: int = 24) -> np.ndarray:
     """The board as printed (BGR) with its inner corners — what the detector looks for — marked."""
-    from core.board_render import board_texture
+    from core.sim.board_render import board_texture
 
     tex = board_texture(board, px_per_square)
     img = cv2.cvtColor(tex.image, cv2.COLOR_GRAY2BGR)

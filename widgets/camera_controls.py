@@ -12,7 +12,13 @@ from PySide6 import QtCore, QtWidgets
 from superqt import QLabeledDoubleSlider, QLabeledSlider
 
 from core.settings import SGBM_MODES, CameraSettings, SettingsError, SgbmParams
-from widgets._style import TOUCH_PX, Coalescer, touch_button, touch_scroll_area, touch_slider
+from widgets._style import (
+    TOUCH_PX,
+    Coalescer,
+    touch_button,
+    touch_scroll_area,
+    touch_slider,
+)
 
 THROTTLE_MS = 50
 HORIZONTAL = QtCore.Qt.Orientation.Horizontal

@@ -14,7 +14,7 @@ from typing import Optional, Sequence
 from PySide6 import QtCore, QtWidgets
 from superqt import QLabeledDoubleSlider
 
-from core.cameras import CameraControl
+from core.vision.cameras import CameraControl
 from widgets._style import TOUCH_PX, WARN_COLOUR, Coalescer, touch_button, touch_slider
 
 THROTTLE_MS = 50

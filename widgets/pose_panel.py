@@ -3,7 +3,7 @@
 The panel edits a tool pose in robot_base and emits it as a frozen :class:`PoseTarget` in SI
 units (m, rad); centimetres, degrees and millimetres exist only in its fields. Orientation is
 roll, pitch, yaw about robot_base's fixed x, y, z axes, ``R = Rz(yaw) · Ry(pitch) · Rx(roll)``
-— the URDF/ROS convention of ``core.kinematics_base.rpy_to_matrix`` (Pinocchio's
+— the URDF/ROS convention of ``core.kinematics.base.rpy_to_matrix`` (Pinocchio's
 ``pin.rpy.rpyToMatrix``), which :func:`pose_target_to_matrix` uses, so its matrix goes straight
 to ``ClikKinematics.ik_pose``.
 
@@ -20,7 +20,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 from PySide6 import QtCore, QtWidgets
 
-from core.kinematics_base import matrix_to_rpy, pose_matrix, rpy_to_matrix
+from core.kinematics.base import matrix_to_rpy, pose_matrix, rpy_to_matrix
 from widgets._style import TOUCH_PX, TouchDoubleSpinBox
 
 M_TO_CM = 100.0

@@ -7,10 +7,29 @@ from typing import Optional, Sequence
 from PySide6 import QtCore, QtWidgets
 from superqt import QLabeledDoubleSlider, QLabeledSlider
 
-from core.settings import BM_PREFILTERS, STEREO_MATCHERS, SettingsError, SgbmParams, StereoMatchParams
-from widgets._style import (ERROR_COLOUR, OK_COLOUR, TOUCH_PX, Coalescer, coloured_label_style, touch_button,
-                            touch_slider)
-from widgets.camera_controls import CHECKBOX_STYLE, HORIZONTAL, THROTTLE_MS, SgbmPanel, _row_label
+from core.settings import (
+    BM_PREFILTERS,
+    STEREO_MATCHERS,
+    SettingsError,
+    SgbmParams,
+    StereoMatchParams,
+)
+from widgets._style import (
+    ERROR_COLOUR,
+    OK_COLOUR,
+    TOUCH_PX,
+    Coalescer,
+    coloured_label_style,
+    touch_button,
+    touch_slider,
+)
+from widgets.camera_controls import (
+    CHECKBOX_STYLE,
+    HORIZONTAL,
+    THROTTLE_MS,
+    SgbmPanel,
+    _row_label,
+)
 
 MATCHER_TEXT = {"SGBM": "SGBM (semi-global)", "BM": "BM (block matching, ~3× faster)"}
 PREFILTER_TEXT = {"XSOBEL": "x-Sobel", "NORMALIZED_RESPONSE": "normalised response"}

@@ -8,8 +8,15 @@ from PySide6 import QtCore, QtWidgets
 
 from core.messages import TargetMode
 from core.settings import LissajousParams
-from widgets._style import (ERROR_COLOUR, OK_COLOUR, TOUCH_PX, TouchDoubleSpinBox,
-                            touch_button, touch_scroll_area, touch_slider)
+from widgets._style import (
+    ERROR_COLOUR,
+    OK_COLOUR,
+    TOUCH_PX,
+    TouchDoubleSpinBox,
+    touch_button,
+    touch_scroll_area,
+    touch_slider,
+)
 
 M_TO_CM = 100.0
 CM_TO_SLIDER = 10  # the manual sliders count millimetres: one step per 0.1 cm shown

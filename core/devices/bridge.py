@@ -1,0 +1,239 @@
+"""The motor bridge interface: what every arm link offers, its errors and its URLs.
+
+A bridge sends joint commands to an arm and reports its joint state. The implementations live
+beside this module — ``sim_arm`` (SimServoArm, the simulated arm), ``serial_v1`` (the seed
+protocol) and ``serial_v2`` (deskarm's framed protocol) — and ``core.devices.open_bridge(url,
+profile)`` chooses one from the URL:
+
+- ``sim://`` — the simulated arm (SimServoArm);
+- ``/dev/ttyACM0``, ``COM3``, ``loop://`` or any pyserial URL, or the same with ``v1:`` in
+  front — the seed protocol v1 (SerialV1Bridge): no feedback, the twin shows commanded angles;
+- ``v2:/dev/ttyACM0`` — our protocol v2 (SerialV2Bridge): measured joint states, heartbeat,
+  watchdog, e-stop.
+
+There is deliberately no auto-detection of the protocol. Probing means sending a v2 frame
+(a PING is ``F5 F5 00 05 seq crc crc F7``) to a board that may run the ORIGINAL firmware, which
+knows nothing of frames: it reads every byte 0x00–0xB4 as an angle for whichever joint a
+previous host left selected — the 0x00 in the PING alone would swing that joint to 0°. A
+probe could move the arm, so the user says which firmware the board runs.
+
+Every bridge clamps again before it writes: no path can command a servo outside its joint
+limits or outside 0–180°. Every bridge has ``estop()`` / ``rearm()``: while e-stopped
+``send`` writes nothing and returns ``()``; v2 also switches the pulses off on the board, the
+simulated arm freezes, v1 can only stop sending (the servos hold their last position).
+"""
+from __future__ import annotations
+
+import errno
+import math
+import os
+import re
+import stat
+from abc import ABC, abstractmethod
+from typing import Optional, Sequence
+
+from core.clock import WallClock
+from core.messages import BridgeStatus, JointCommand, JointState, SequenceCounter
+from core.motion.safety import to_servo_bytes_deg
+
+BRIDGE_CHOICES = (
+    "sim:// (simulated arm) | /dev/ttyACM0, /dev/ttyUSB0, /dev/serial/by-id/…, COM3 or v1:<port> "
+    "(original firmware, protocol v1: no feedback) | v2:<port>, e.g. v2:/dev/ttyACM0 (deskarm "
+    "firmware, protocol v2: feedback, watchdog, e-stop) | loop:// (pyserial loopback). "
+    "No auto-detection: a v2 probe would move an arm running the original firmware"
+)
+
+
+class BridgeError(RuntimeError):
+    """The bridge could not connect or lost its device; the message says what to do."""
+
+
+class MotorBridge(ABC):
+    """Sends joint commands to an arm and reports its joint state.
+
+    Lifecycle: ``connect()``, ``disconnect()``, ``is_connected``, context manager.
+    ``send`` returns the servo angles actually sent after clamping.
+    """
+
+    has_feedback = False
+    _estopped = False  # class default, so subclasses that skip __init__ still work
+
+    def __init__(self, url: str, profile, clock=None):
+        self.url = url
+        self.profile = profile
+        self.clock = clock or WallClock()
+        self.commands_sent = 0
+        self.bytes_written = 0
+        self.last_write_t: Optional[float] = None
+        self.last_source_t: Optional[float] = None
+        self.message = ""
+        self._state_seq = SequenceCounter()
+        self._last_sent_deg: Optional[tuple[int, ...]] = None
+
+    @abstractmethod
+    def connect(self) -> None: ...
+
+    @abstractmethod
+    def disconnect(self) -> None: ...
+
+    @property
+    @abstractmethod
+    def is_connected(self) -> bool: ...
+
+    @abstractmethod
+    def _write_servo_deg(self, servo_deg: tuple[int, ...]) -> int:
+        """Write whole-degree servo angles; returns the number of bytes written."""
+
+    def send(self, command: JointCommand) -> tuple[int, ...]:
+        """Clamp, convert to servo degrees and write; returns the servo angles sent.
+
+        While e-stopped nothing is written and the result is ``()``.
+        """
+        if self._estopped:
+            return ()
+        servo_deg = to_servo_bytes_deg(command.q, self.profile)
+        written = self._write_servo_deg(servo_deg)
+        self.commands_sent += 1
+        self.bytes_written += written
+        self.last_write_t = self.clock.now()
+        self.last_source_t = command.source_t
+        self._last_sent_deg = servo_deg
+        return servo_deg
+
+    def joint_state(self) -> Optional[JointState]:
+        """The arm's joint state: measured, or the last command echoed (``measured=False``)."""
+        if self._last_sent_deg is None:
+            return None
+        q = servo_deg_to_q(self._last_sent_deg, self.profile)
+        return JointState(seq=self._state_seq.next(), t=self.clock.now(), q=q, measured=False)
+
+    @property
+    def is_estopped(self) -> bool:
+        """True from ``estop()`` until ``rearm()``."""
+        return self._estopped
+
+    def estop(self) -> None:
+        """Stop the arm now; nothing is sent until ``rearm()``.
+
+        The base behaviour (v1) is to stop writing: the seed firmware has no stop command,
+        so its servos hold their last position. Subclasses also act on the device
+        (``_on_estop``). Works while disconnected too: the state is kept for the next connect.
+        """
+        self._estopped = True
+        self._on_estop()
+
+    def rearm(self) -> None:
+        """End an e-stop: commands are sent again (nothing moves until the next one)."""
+        self._estopped = False
+        self._on_rearm()
+
+    def _on_estop(self) -> None:
+        """Device-specific part of ``estop()``; the base only stops sending."""
+
+    def _on_rearm(self) -> None:
+        """Device-specific part of ``rearm()``."""
+
+    def _estop_text(self) -> str:
+        """What an e-stop means on this bridge, for the status bar."""
+        return ("E-STOP: not sending — protocol v1 cannot switch the servos off, they hold "
+                "their last position; re-arm to resume")
+
+    def status(self) -> BridgeStatus:
+        message = self.message
+        if self._estopped:
+            message = f"{self._estop_text()} · {message}" if message else self._estop_text()
+        return BridgeStatus(
+            url=self.url, connected=self.is_connected, message=message,
+            commands_sent=self.commands_sent, bytes_written=self.bytes_written,
+            last_write_t=self.last_write_t, last_source_t=self.last_source_t,
+        )
+
+    def __enter__(self):
+        self.connect()
+        return self
+
+    def __exit__(self, *exc):
+        self.disconnect()
+
+
+def servo_deg_to_q(servo_deg: Sequence[float], profile) -> tuple[float, ...]:
+    """Servo angles (deg) -> kinematic joint values (rad) through each joint's offset/direction."""
+    return tuple(j.from_servo_deg(d) for j, d in zip(profile.joints, servo_deg))
+
+
+def _errno_of(exc: Exception) -> Optional[int]:
+    """The OS error number behind a pyserial/OS error (pyserial often keeps it in the text only)."""
+    code = getattr(exc, "errno", None)
+    if isinstance(code, int):
+        return code
+    match = re.search(r"\[errno (\d+)\]", str(exc).lower())
+    return int(match.group(1)) if match else None
+
+
+def explain_serial_error(url: str, exc: Exception) -> str:
+    """Turn a pyserial/OS error into a sentence that says what happened and what to do."""
+    text = str(exc)
+    low = text.lower()
+    code = _errno_of(exc)
+    if code == errno.EACCES or "permission denied" in low or "access is denied" in low:
+        return f"{url}: permission denied — add your user to the 'dialout' group and log in again"
+    if code == errno.ENOENT or "no such file" in low or "filenotfounderror" in low:
+        return (f"{url}: no such port — is the board plugged in? Valid ports look like "
+                "/dev/ttyACM0, /dev/ttyUSB0, /dev/serial/by-id/… or COM3")
+    if (code in (errno.EBUSY, errno.EAGAIN) or "busy" in low or "exclusively lock" in low
+            or "being used by another" in low):
+        return f"{url}: port busy — close the other program using it (serial monitor, another deskarm)"
+    if code == errno.ENOTTY or "inappropriate ioctl" in low:
+        return f"{url}: not a serial port — choose the board's port (e.g. /dev/ttyACM0)"
+    if "write timeout" in low:
+        return (f"{url}: write timed out — the port accepts no data (wrong port, or the board "
+                "is hung: press its reset button)")
+    if (code in (errno.EIO, errno.ENXIO, errno.ENODEV, errno.EBADF) or "disconnected" in low
+            or "device reports" in low or "port not open" in low or "attempting to use a port" in low):
+        return f"{url}: the device went away (unplugged?) — plug it back in; deskarm reconnects by itself"
+    return f"{url}: {text or type(exc).__name__}"
+
+
+_SERIAL_URL_PREFIXES = ("/dev/", "COM", "\\\\.\\COM", "loop://", "socket://", "rfc2217://",
+                        "spy://", "hwgrep://", "alt://", "cp2110://")
+V1_PREFIX = "v1:"  # explicit protocol v1 (the default for a plain port)
+V2_PREFIX = "v2:"  # protocol v2: deskarm firmware only (see the module docstring)
+
+
+def _is_serial_port_url(port: str) -> bool:
+    if port.startswith(_SERIAL_URL_PREFIXES) or (port.startswith("/") and "tty" in port):
+        return True
+    # any other typed path to a character device, e.g. a symlink a test or udev made to a pty
+    try:
+        return port.startswith("/") and stat.S_ISCHR(os.stat(port).st_mode)
+    except OSError:
+        return False
+
+
+def split_bridge_url(url: str) -> tuple[str, str]:
+    """``(protocol, port)``: ('sim', 'sim://'), ('v1', '/dev/ttyACM0') or ('v2', '/dev/ttyACM0').
+
+    A plain port means v1, as it always did; ``v1:`` says so explicitly, ``v2:`` chooses v2.
+    ValueError names the value and the valid forms.
+    """
+    url = (url or "sim://").strip()
+    if url in ("sim", "sim://"):
+        return "sim", "sim://"
+    protocol = "v1"
+    port = url
+    low = url.lower()
+    if low.startswith((V1_PREFIX, V2_PREFIX)):
+        protocol, port = low[:2], url[3:].strip()
+    if port and _is_serial_port_url(port):
+        return protocol, port
+    raise ValueError(f"unknown --bridge value {url!r}; valid: {BRIDGE_CHOICES}")
+
+
+def parse_bridge_url(url: str) -> str:
+    """'sim', 'serial' (protocol v1) or 'serial-v2'; ValueError naming the value and the valid forms."""
+    protocol, _ = split_bridge_url(url)
+    return {"sim": "sim", "v1": "serial", "v2": "serial-v2"}[protocol]
+
+
+def is_finite_q(q: Sequence[float]) -> bool:
+    return all(math.isfinite(v) for v in q)

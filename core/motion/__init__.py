@@ -1,0 +1,1 @@
+"""Motion: targeting, trajectories, the grab task, the control step, its scheduling and the safety clamps."""

@@ -1,0 +1,76 @@
+"""The control step: Goal -> inverse kinematics -> safety clamps -> JointCommand.
+
+Runs at a fixed rate (50 Hz, the servo PWM frame) in the kinematics/control worker and in the
+headless runner. A lost marker holds the last command; an unreachable goal sends the arm to the
+nearest reachable point and says by how much the goal is out of reach.
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional, Sequence
+
+import numpy as np
+
+from core.kinematics.base import pose_matrix, rpy_to_matrix
+from core.messages import Goal, JointCommand, SequenceCounter, as_point
+from core.motion.safety import clamp_to_limits, limit_step
+
+CONTROL_RATE_HZ = 50.0
+
+
+def goal_pose_matrix(base_p, rpy) -> "np.ndarray":
+    """``oMdes`` the controller solves for: position (m) and roll, pitch, yaw (rad, Pinocchio's
+    R = Rz(yaw) · Ry(pitch) · Rx(roll))."""
+    return pose_matrix(base_p, rpy_to_matrix(*rpy))
+
+
+class ArmController:
+    """Solves IK for each goal and limits each joint's step per tick."""
+
+    def __init__(self, profile, kinematics, rate_hz: float = CONTROL_RATE_HZ):
+        self.profile = profile
+        self.kinematics = kinematics
+        self.period_s = 1.0 / rate_hz
+        self.max_step_rad = tuple(
+            math.radians(j.max_speed_deg_s) * self.period_s for j in profile.joints
+        )
+        self.last: Optional[JointCommand] = None
+        self.last_ik = None
+        self.armed = True  # False after an e-stop: refuse new commands until re-armed
+        self._seq = SequenceCounter()
+
+    def step(self, goal: Optional[Goal], q_now: Sequence[float], t: float) -> Optional[JointCommand]:
+        """One control tick. ``q_now`` is the measured (or last commanded) joint state.
+
+        Returns None when there is nothing to send (no goal yet, or disarmed).
+        """
+        if not self.armed:
+            return None
+        q_ref = self.last.q if self.last is not None else tuple(q_now)
+        if goal is None or not goal.valid:
+            if self.last is None:
+                return None
+            # hold: repeat the last command (servos keep their pulse; the link stays alive)
+            return JointCommand(self._seq.next(), t, self.last.q, goal.source_t if goal else None,
+                                self.last.reachable, self.last.reach_error_m, self.last.base_p_target)
+        if goal.orientation_rpy is not None and hasattr(self.kinematics, "ik_pose"):
+            ik = self.kinematics.ik_pose(goal_pose_matrix(goal.base_p_target, goal.orientation_rpy), q_ref)
+        else:
+            ik = self.kinematics.ik(goal.base_p_target, q_ref)
+        self.last_ik = ik
+        q_safe, changed = clamp_to_limits(ik.q, self.profile)
+        q_limited = limit_step(q_ref, q_safe, self.max_step_rad)
+        q_final, changed_again = clamp_to_limits(q_limited, self.profile)
+        cmd = JointCommand(
+            seq=self._seq.next(), t=t, q=tuple(q_final), source_t=goal.source_t,
+            reachable=bool(ik.reachable), reach_error_m=float(ik.error_m),
+            base_p_target=as_point(ik.base_p_reached), clamped=bool(changed or changed_again),
+        )
+        self.last = cmd
+        return cmd
+
+    def estop(self) -> None:
+        self.armed = False
+
+    def rearm(self) -> None:
+        self.armed = True

@@ -1,0 +1,817 @@
+"""The simulated desk: renders what the simulated stereo rig sees, with exact ground truth.
+
+A wood-textured desk (warped once per camera and cached), ArUco markers lying on it or on
+upside-down cups, a ball, a passing hand and the arm drawn from its chain points — painted far to
+near — then the camera's image controls (one LUT), lens blur and sensor noise.
+
+Geometry is exact: a marker corner at robot_base point P lands at ``rig.project(side, P)``
+(OpenCV's pixel-centre convention, pixel (0, 0) centred at 0.0). Markers are warped from a
+texture into a 4× supersampled patch and area-averaged, so their edges carry sub-pixel coverage.
+(ArUco's CORNER_REFINE_CONTOUR puts corners ~0.5 px inside each edge — ~0.75 px along the
+diagonal — on these exact edges; marker centres come out within ~0.1 px.)
+
+Sensor noise is luma noise (one cv2.randn value per pixel, added to all three channels),
+seeded by (seed, t, side), so a render is reproducible.
+Scenarios (what moves where) live in ``core.sim.scenarios``.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import struct
+import zlib
+from dataclasses import dataclass, field
+from typing import Optional, Sequence
+
+import cv2
+import numpy as np
+
+from core.messages import GroundTruth, ObjectTruth, StereoFrame
+from core.settings import CameraSettings
+from core.sim.rig import SimRig
+from core.sim.scenarios import (
+    BALL_RADIUS_M,
+    CUP_HEIGHT_M,
+    CUP_RIM_RADIUS_M,
+    CUP_TOP_RADIUS_M,
+    SCENARIOS,
+    Card,
+    Cup,
+    Hand,
+    SceneState,
+    make_scenario,
+    scenario_names,
+)
+
+__all__ = ["SimDesk", "SCENARIOS", "scenario_names", "desk_texture"]
+
+SIDES = ("left", "right")
+
+# desk texture: it covers what the rig sees of the desk (up to DESK_MAX_RANGE_M from the
+# cameras), at DESK_M_PER_PX or coarser so it stays under DESK_MAX_TEXTURE_PX on a side
+DESK_M_PER_PX = 0.00125
+DESK_MAX_RANGE_M = 2.0
+DESK_MAX_TEXTURE_PX = 2048
+WALL_COLOUR = (150, 155, 158)  # above the horizon (only with rigs that look that far up)
+
+SUPERSAMPLE = 4  # marker patches are warped at 4× and area-averaged (anti-aliased edges)
+MARKER_PX_PER_CELL = 16  # marker texture resolution (8 cells + white border → 160 px wide)
+MARKER_BORDER_CELLS = 1.0  # white quiet zone around the black border, in marker cells
+MARKER_BLACK = 28  # printed black and paper white, 8-bit levels before the camera LUT
+MARKER_WHITE = 226
+EDGE_MARGIN_PX = 3.0  # a marker counts as inside an image when its corners keep this margin
+
+# light: a lamp above, a little to the left and towards the user (unit vector to the light)
+LIGHT = np.array([-0.35, -0.25, 1.0]) / np.linalg.norm([-0.35, -0.25, 1.0])
+AMBIENT = 0.45
+SHADOW_DARKNESS = 0.38  # fraction of light a full shadow removes
+SHADOW_BLUR_PX = 2.0
+NEAR_M = 0.02  # near clipping plane of the virtual cameras
+
+CUP_COLOUR = (175, 105, 40)  # BGR, blue plastic
+CUP_TOP_COLOUR = (195, 130, 70)
+CUP_STRIPS = 36
+CUP_SHADE_LEVELS = 24  # shading steps across a cup's side (runs of strips share one)
+BALL_COLOUR = (38, 38, 205)  # BGR, red
+ARM_LINK_COLOUR = (178, 180, 184)  # aluminium
+ARM_LINK_HIGHLIGHT = (228, 230, 234)
+ARM_LINK_EDGE = (92, 94, 98)
+ARM_JOINT_COLOUR = (36, 36, 40)  # black servo horns
+ARM_BASE_COLOUR = (58, 58, 62)
+ARM_TOOL_COLOUR = (0, 150, 255)  # orange tool tip
+HAND_COLOUR = (130, 148, 172)  # greyish skin
+HAND_DARK = (100, 116, 138)
+
+ARM_BASE_RADIUS_M = 0.045
+ARM_LINK_RADII_M = (0.021, 0.014, 0.011)  # base tower, upper arm, forearm (last repeats)
+ARM_JOINT_RADIUS_M = 0.017
+ARM_TOOL_RADIUS_M = 0.012
+
+
+# ----------------------------------------------------------------------------------------------
+# textures
+
+
+@functools.lru_cache(maxsize=4)
+def desk_texture(seed: int = 0, x_range=(-0.5, 0.5), y_range=(-0.3, 0.7),
+                 m_per_px: float = DESK_M_PER_PX) -> np.ndarray:
+    """The desk's wood-like texture, BGR uint8, covering x_range × y_range (robot_base, m).
+
+    Row 0 is the far (+y) edge, column 0 the −x edge: seen from above it reads like a map.
+    Random (aperiodic) multi-scale noise so stereo block matching finds texture everywhere:
+    grain along y (across the rig's horizontal epipolar lines), mottling and fine speckle.
+    """
+    w = int(round((x_range[1] - x_range[0]) / m_per_px))
+    h = int(round((y_range[1] - y_range[0]) / m_per_px))
+    rng = np.random.default_rng([seed & 0x7FFFFFFF, 1234])
+    k = DESK_M_PER_PX / m_per_px  # feature sizes are set in metres: sigmas at the finest scale
+
+    def noise(sx: float, sy: float) -> np.ndarray:
+        # smooth noise is drawn on a coarse grid and scaled up: the same look, far cheaper
+        sx, sy = sx * k, sy * k
+        fx, fy = max(1, int(sx / 2)), max(1, int(sy / 2))
+        n = rng.standard_normal((-(-h // fy), -(-w // fx))).astype(np.float32)
+        n = cv2.GaussianBlur(n, (0, 0), sigmaX=max(sx / fx, 0.3), sigmaY=max(sy / fy, 0.3),
+                             borderType=cv2.BORDER_REFLECT)
+        if fx > 1 or fy > 1:
+            n = cv2.resize(n, (n.shape[1] * fx, n.shape[0] * fy), interpolation=cv2.INTER_CUBIC)[:h, :w]
+        return n / (float(n.std()) + 1e-9)
+
+    grain = noise(1.0, 30.0)  # long thin streaks along y: wood grain
+    bands = noise(7.0, 90.0)  # wider growth bands
+    mottle = noise(10.0, 10.0)
+    blotch = noise(45.0, 45.0)
+    fine = noise(0.7, 0.7)
+    v = 0.30 * grain + 0.45 * bands + 0.25 * mottle + 0.20 * blotch + 0.28 * fine
+    # lamp fall-off across the desk (world-fixed, so both cameras agree)
+    xs = x_range[0] + (np.arange(w, dtype=np.float32) + 0.5) * m_per_px
+    ys = y_range[1] - (np.arange(h, dtype=np.float32) + 0.5) * m_per_px
+    r2 = (xs[None, :] + 0.05) ** 2 + (ys[:, None] - 0.10) ** 2
+    light = 0.72 + 0.36 * np.exp(-r2 / (2 * 0.32**2))
+    base = np.array([92, 138, 182], np.float32)  # BGR, light oak
+    tint = np.array([0.9, 1.0, 1.05], np.float32)  # darker streaks are a little redder
+    img = base * light[..., None] * (1.0 + 0.11 * v[..., None] * tint)
+    return np.clip(img + 0.5, 0, 255).astype(np.uint8)
+
+
+def desk_extent(rig: SimRig) -> tuple[tuple[float, float], tuple[float, float], float]:
+    """(x_range, y_range, m_per_px) of a desk texture covering what both cameras see."""
+    w, h = rig.size
+    u = np.concatenate([np.linspace(0, w - 1, 17), np.full(13, w - 1.0), np.linspace(w - 1, 0, 17), np.zeros(13)])
+    v = np.concatenate([np.zeros(17), np.linspace(0, h - 1, 13), np.full(17, h - 1.0), np.linspace(h - 1, 0, 13)])
+    pix = np.stack([u, v, np.ones_like(u)])
+    pts = []
+    for base_T_cam in (rig.base_T_left, rig.base_T_right):
+        c = base_T_cam[:3, 3]
+        d = base_T_cam[:3, :3] @ np.linalg.inv(rig.K) @ pix  # ray directions, robot_base
+        for ray in d.T:
+            horiz = ray[:2] / (np.linalg.norm(ray[:2]) + 1e-12)
+            s = -c[2] / ray[2] if ray[2] < -1e-9 else np.inf
+            p = c[:2] + s * ray[:2] if np.isfinite(s) else c[:2] + DESK_MAX_RANGE_M * horiz
+            if np.linalg.norm(p - c[:2]) > DESK_MAX_RANGE_M:
+                p = c[:2] + DESK_MAX_RANGE_M * horiz
+            pts.append(p)
+    pts = np.array(pts)
+    lo = np.floor((pts.min(axis=0) - 0.05) * 20) / 20  # 5 cm margin, on a 5 cm grid (cache hits)
+    hi = np.ceil((pts.max(axis=0) + 0.05) * 20) / 20
+    m_per_px = max(DESK_M_PER_PX, float(np.max(hi - lo)) / DESK_MAX_TEXTURE_PX)
+    return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1])), m_per_px
+
+
+def marker_texture(dictionary, marker_id: int, clip_radius_frac: Optional[float] = None) -> np.ndarray:
+    """Premultiplied BGRA texture of a marker on white paper (border MARKER_BORDER_CELLS cells).
+
+    Row 0 is the marker's top edge (generateImageMarker's orientation). With ``clip_radius_frac``
+    the paper is cut to a disc of that radius (fraction of the texture's half width).
+    """
+    cells = 8  # 6×6 data cells + the one-cell black border
+    side = cells * MARKER_PX_PER_CELL
+    marker = cv2.aruco.generateImageMarker(dictionary, int(marker_id), side, borderBits=1)
+    b = int(round(MARKER_BORDER_CELLS * MARKER_PX_PER_CELL))
+    marker = cv2.copyMakeBorder(marker, b, b, b, b, cv2.BORDER_CONSTANT, value=255)
+    grey = np.where(marker > 127, MARKER_WHITE, MARKER_BLACK).astype(np.float32)
+    n = marker.shape[0]
+    alpha = np.ones((n, n), np.float32)
+    if clip_radius_frac is not None:
+        c = (n - 1) / 2.0
+        yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+        dist = np.hypot(xx - c, yy - c)
+        alpha = np.clip(clip_radius_frac * n / 2.0 - dist + 0.5, 0.0, 1.0)
+    bgra = np.empty((n, n, 4), np.float32)
+    bgra[..., 0] = bgra[..., 1] = bgra[..., 2] = grey * alpha
+    bgra[..., 3] = 255.0 * alpha
+    return np.clip(bgra + 0.5, 0, 255).astype(np.uint8)
+
+
+# ----------------------------------------------------------------------------------------------
+# per-view drawing lists
+
+
+@dataclass
+class _Shape:
+    pts: np.ndarray  # (M, 2) image px
+    colour: tuple
+
+
+@dataclass
+class _Item:
+    """One thing to paint, with what it hides (shapes) and what it is (truth target)."""
+
+    depth: float  # camera z of its reference point (m); painted far to near
+    shapes: list = field(default_factory=list)  # filled polygons, in order
+    lines: list = field(default_factory=list)  # (pts, colour, closed) decoration, 1 px AA
+    marker: Optional[tuple] = None  # (marker_id, H_img_tex, corners_px (4,2), disc) to composite
+    target: Optional[int] = None  # truth key: a marker id, or -1 for the ball
+    target_region: Optional[np.ndarray] = None  # image px polygon that must stay uncovered
+    target_corners: Optional[np.ndarray] = None  # image px points that must be inside the image
+    occluder: bool = True
+    flat: bool = False  # lies on the desk: painted before the shadows and every solid item
+
+
+def _fill(img: np.ndarray, pts: np.ndarray, colour, aa: bool = True) -> None:
+    cv2.fillPoly(img, [np.round(pts * 16.0).astype(np.int32)], colour,
+                 lineType=cv2.LINE_AA if aa else cv2.LINE_8, shift=4)
+
+
+def _circle(n: int = 32) -> np.ndarray:
+    a = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+    return np.stack([np.cos(a), np.sin(a)], axis=1)
+
+
+_CIRCLE32 = _circle(32)
+_CUP_ANGLES = np.linspace(0.0, 2 * math.pi, CUP_STRIPS, endpoint=False)
+
+
+def _shade(colour, k: float) -> tuple:
+    return tuple(float(min(255.0, c * k)) for c in colour)
+
+
+def _rounded_rect(u0: float, u1: float, v0: float, v1: float, r0: float, r1: float, n: int = 6) -> np.ndarray:
+    """Outline (M, 2) of a rectangle [u0,u1]×[v0,v1] with corner radius r0 at v0 and r1 at v1."""
+    pts = []
+    for cu, cv, r, a0 in ((u1 - r1, v1 - r1, r1, 0.0), (u0 + r1, v1 - r1, r1, 90.0),
+                          (u0 + r0, v0 + r0, r0, 180.0), (u1 - r0, v0 + r0, r0, 270.0)):
+        for a in np.radians(np.linspace(a0, a0 + 90.0, n)):
+            pts.append((cu + r * math.cos(a), cv + r * math.sin(a)))
+    return np.array(pts)
+
+
+# the hand in its own frame (u right, v along the fingers; m): palm + fingers, forearm, thumb
+_HAND_OUTLINES = (
+    _rounded_rect(-0.036, 0.036, -0.46, -0.03, 0.0, 0.0, 2),  # forearm, back towards the user
+    _rounded_rect(-0.045, 0.045, -0.05, 0.105, 0.018, 0.026),
+    _rounded_rect(0.030, 0.056, -0.03, 0.045, 0.012, 0.012) @ np.array([[0.94, 0.34], [-0.34, 0.94]])
+    + np.array([0.012, 0.0]),
+)
+_HAND_GAPS = tuple(((u, 0.105 - 0.004), (u, 0.045)) for u in (-0.0225, 0.0, 0.0225))
+
+
+class _View:
+    """One camera: projection, position and the cached desk image."""
+
+    def __init__(self, rig: SimRig, side: str, seed: int):
+        self.side = side
+        self.P = rig.projection(side)
+        self.f = float(rig.K[0, 0])
+        base_T_cam = rig.base_T_left if side == "left" else rig.base_T_right
+        self.cam_pos = base_T_cam[:3, 3].copy()
+        self.size = rig.size
+        x_range, y_range, m = desk_extent(rig)
+        tex = desk_texture(seed, x_range, y_range, m)
+        A = np.array([[m, 0.0, x_range[0] + 0.5 * m],  # texel centre → desk point (m)
+                      [0.0, -m, y_range[1] - 0.5 * m],
+                      [0.0, 0.0, 1.0]])
+        H = self.plane_homography(0.0) @ A
+        self.desk = cv2.warpPerspective(tex, H, self.size, flags=cv2.INTER_LINEAR,
+                                        borderMode=cv2.BORDER_REFLECT)
+        # pixels whose ray never meets the desk (above the horizon) show a plain wall
+        w, h = self.size
+        uu, vv = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+        ray_z = (base_T_cam[:3, :3] @ np.linalg.inv(rig.K))[2]
+        sky = ray_z[0] * uu + ray_z[1] * vv + ray_z[2] > -1e-3
+        if np.any(sky):
+            self.desk[sky] = WALL_COLOUR
+
+    def plane_homography(self, z: float) -> np.ndarray:
+        """Maps (X, Y, 1) on the horizontal plane at height z (robot_base) to image px."""
+        P = self.P
+        return np.column_stack([P[:, 0], P[:, 1], P[:, 2] * z + P[:, 3]])
+
+    def project(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Image px (N, 2) and depth (N,) of robot_base points (N, 3)."""
+        h = pts @ self.P[:, :3].T + self.P[:, 3]
+        return h[:, :2] / h[:, 2:3], h[:, 2]
+
+    def project_polygon(self, pts: np.ndarray) -> Optional[np.ndarray]:
+        """Image px of a planar 3D polygon, clipped to the near plane; None if all behind it."""
+        h = pts @ self.P[:, :3].T + self.P[:, 3]
+        if np.all(h[:, 2] >= NEAR_M):
+            return h[:, :2] / h[:, 2:3]
+        out = []
+        n = len(h)
+        for i in range(n):  # Sutherland–Hodgman against depth >= NEAR_M
+            a, b = h[i], h[(i + 1) % n]
+            ina, inb = a[2] >= NEAR_M, b[2] >= NEAR_M
+            if ina:
+                out.append(a)
+            if ina != inb:
+                s = (NEAR_M - a[2]) / (b[2] - a[2])
+                out.append(a + s * (b - a))
+        if len(out) < 3:
+            return None
+        h = np.array(out)
+        return h[:, :2] / h[:, 2:3]
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+class SimDesk:
+    """Renders the simulated desk into the rig's two cameras, with ground truth.
+
+    ``render(t, arm_points)`` gives (left, right, GroundTruth) for scenario time t (s).
+    Deterministic: the same seed, settings, t and arm give identical images.
+    """
+
+    ball_colour_bgr = BALL_COLOUR  # the ball's body colour (its shading varies ±25 % around it)
+
+    def __init__(self, rig: SimRig, scenario: str = "static", marker_ids: Sequence[int] = (23, 50),
+                 marker_size_m: float = 0.04, seed: int = 0, blur_sigma_px: float = 0.6,
+                 noise_sigma: float = 2.0):
+        ids = tuple(int(i) for i in marker_ids)
+        if len(set(ids)) != len(ids) or any(not 0 <= i < 250 for i in ids):
+            raise ValueError(f"marker_ids = {ids}: need distinct DICT_6X6_250 ids in 0…249")
+        if not 0.01 <= marker_size_m <= 0.2:
+            raise ValueError(f"marker_size_m = {marker_size_m} is outside 0.01…0.2 m")
+        if not 0.0 <= blur_sigma_px <= 10.0:
+            raise ValueError(f"blur_sigma_px = {blur_sigma_px} is outside 0…10 px")
+        if not 0.0 <= noise_sigma <= 50.0:
+            raise ValueError(f"noise_sigma = {noise_sigma} is outside 0…50 levels")
+        self.rig = rig
+        self.marker_ids = ids
+        self.marker_size_m = float(marker_size_m)
+        self.seed = int(seed)
+        self.blur_sigma_px = float(blur_sigma_px)
+        self.noise_sigma = float(noise_sigma)
+        # ±2.5σ is plenty (σ = 0.6 → 3 taps; OpenCV's own 8-bit rule would take 5)
+        k = 2 * max(1, math.ceil(2.5 * self.blur_sigma_px - 0.5)) + 1
+        self._blur_ksize = (k, k)
+        self._dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
+        self._views = {side: _View(rig, side, self.seed) for side in SIDES}
+        # the printed square: black marker + white quiet zone (m)
+        self._paper_m = self.marker_size_m * (8 + 2 * MARKER_BORDER_CELLS) / 8
+        # the cup's top must hold the marker (its corners stay a little inside the rim)
+        cell = self.marker_size_m / 8
+        self.cup_top_radius_m = max(CUP_TOP_RADIUS_M, self.marker_size_m / math.sqrt(2) + 0.9 * cell)
+        self.cup_rim_radius_m = self.cup_top_radius_m + (CUP_RIM_RADIUS_M - CUP_TOP_RADIUS_M)
+        label_r = self.cup_top_radius_m - 0.0015
+        self._textures = {}
+        for i in ids:
+            self._textures[(i, False)] = marker_texture(self._dictionary, i)
+            self._textures[(i, True)] = marker_texture(self._dictionary, i, label_r / (self._paper_m / 2))
+        self._settings = CameraSettings()
+        self._lut: Optional[np.ndarray] = None
+        self.set_scenario(scenario)
+
+    # -- configuration ----------------------------------------------------------------------
+
+    def set_scenario(self, name: str) -> None:
+        """Switch to scenario ``name`` (one of ``scenario_names()``); time restarts at its t."""
+        self._scenario = make_scenario(name, self.marker_ids, self.seed)
+        self.scenario = name
+
+    @property
+    def settings(self) -> CameraSettings:
+        """The camera's image controls, applied to every render."""
+        return self._settings
+
+    @settings.setter
+    def settings(self, value: CameraSettings) -> None:
+        self.set_camera_settings(value)
+
+    def set_camera_settings(self, settings: CameraSettings) -> None:
+        """Exposure (×2^EV), gain (×10^(dB/20), more noise), brightness (+), contrast (× about 128)."""
+        if not isinstance(settings, CameraSettings):
+            raise TypeError(f"set_camera_settings needs a CameraSettings, got {type(settings).__name__}")
+        self._settings = settings
+        if settings == CameraSettings():
+            self._lut = None  # identity: skip the LUT pass
+            return
+        v = np.arange(256, dtype=np.float64) * self._gain_factor(settings)
+        v = (v - 127.5) * settings.contrast + 127.5 + settings.brightness
+        self._lut = np.clip(np.round(v), 0, 255).astype(np.uint8).reshape(256, 1)
+
+    @staticmethod
+    def _gain_factor(s: CameraSettings) -> float:
+        return 2.0 ** s.exposure * 10.0 ** (s.gain / 20.0)
+
+    @property
+    def effective_noise_sigma(self) -> float:
+        """Noise std (8-bit levels) after gain and contrast, like a real sensor's read noise."""
+        s = self._settings
+        return self.noise_sigma * 10.0 ** (s.gain / 20.0) * s.contrast
+
+    # -- scene ------------------------------------------------------------------------------
+
+    def scene(self, t: float) -> SceneState:
+        """The scenario's state at time t (s)."""
+        return self._scenario.state(float(t))
+
+    def _marker_pose(self, obj) -> tuple[float, float, float, float]:
+        """(x, y, z, yaw) of the marker centre on a card or cup, robot_base."""
+        if isinstance(obj, Cup):
+            return obj.x, obj.y, obj.lift + CUP_HEIGHT_M, obj.yaw
+        return obj.x, obj.y, 0.0, obj.yaw
+
+    @staticmethod
+    def _local_to_base(pose, local: np.ndarray) -> np.ndarray:
+        x, y, z, yaw = pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        out = np.empty((len(local), 3))
+        out[:, 0] = x + c * local[:, 0] - s * local[:, 1]
+        out[:, 1] = y + s * local[:, 0] + c * local[:, 1]
+        out[:, 2] = z
+        return out
+
+    def _square(self, pose, half: float) -> np.ndarray:
+        """Corners (4, 3) of a square of half-size ``half`` on the marker's plane, in ArUco's order
+        (top-left, top-right, bottom-right, bottom-left; the marker's top faces +y at yaw 0)."""
+        local = np.array([[-half, half], [half, half], [half, -half], [-half, -half]])
+        return self._local_to_base(pose, local)
+
+    def marker_corners(self, t: float) -> dict[int, np.ndarray]:
+        """Each marker's black-square corners (4, 3) in robot_base at time t, in ArUco's order."""
+        st = self.scene(t)
+        return {o.marker_id: self._square(self._marker_pose(o), self.marker_size_m / 2)
+                for o in (*st.cards, *st.cups)}
+
+    # -- layout: what to paint, per view ---------------------------------------------------
+
+    def _marker_parts(self, view: _View, obj, disc: bool):
+        pose = self._marker_pose(obj)
+        x, y, z, yaw = pose
+        tex = self._textures[(obj.marker_id, disc)]
+        n = tex.shape[0]
+        s = self._paper_m / n
+        A = np.array([[s, 0.0, 0.5 * s - self._paper_m / 2],  # texel centre → marker plane (m)
+                      [0.0, -s, self._paper_m / 2 - 0.5 * s],  # rows run towards -y: not mirrored
+                      [0.0, 0.0, 1.0]])
+        c, sn = math.cos(yaw), math.sin(yaw)
+        R = np.array([[c, -sn, x], [sn, c, y], [0.0, 0.0, 1.0]])
+        H = view.plane_homography(z) @ R @ A
+        paper_px, _ = view.project(self._square(pose, self._paper_m / 2))
+        black_px, _ = view.project(self._square(pose, self.marker_size_m / 2))
+        region_px, _ = view.project(self._square(pose, self.marker_size_m / 2 * (1 + 1 / 8)))
+        return (obj.marker_id, H, paper_px, disc), black_px, region_px
+
+    def _card_item(self, view: _View, card: Card) -> _Item:
+        marker, black, region = self._marker_parts(view, card, disc=False)
+        return _Item(depth=0.0, marker=marker, target=card.marker_id, target_region=region,
+                     target_corners=black, flat=True)
+
+    def _cup_item(self, view: _View, cup: Cup) -> _Item:
+        rt, rb, hgt = self.cup_top_radius_m, self.cup_rim_radius_m, CUP_HEIGHT_M
+        cs, sn = np.cos(_CUP_ANGLES), np.sin(_CUP_ANGLES)
+        top = np.column_stack([cup.x + rt * cs, cup.y + rt * sn, np.full_like(cs, cup.lift + hgt)])
+        bot = np.column_stack([cup.x + rb * cs, cup.y + rb * sn, np.full_like(cs, cup.lift)])
+        p_top, _ = view.project(top)
+        p_bot, _ = view.project(bot)
+        _, depth = view.project(np.array([[cup.x, cup.y, cup.lift + hgt / 2]]))
+        hull = cv2.convexHull(np.vstack([p_top, p_bot]).astype(np.float32))[:, 0, :].astype(np.float64)
+        shapes = [_Shape(hull, _shade(CUP_COLOUR, 0.8))]
+        # side strips, Lambert-shaded; only those facing the camera
+        half = math.pi / CUP_STRIPS
+        mid_a = _CUP_ANGLES + half
+        normals = np.column_stack([np.cos(mid_a), np.sin(mid_a), np.full_like(mid_a, (rb - rt) / hgt)])
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        mid_pts = np.column_stack([cup.x + (rt + rb) / 2 * np.cos(mid_a), cup.y + (rt + rb) / 2 * np.sin(mid_a),
+                                   np.full_like(mid_a, cup.lift + hgt / 2)])
+        facing = np.einsum("ij,ij->i", normals, view.cam_pos - mid_pts) > 0
+        shade = np.round((AMBIENT + 0.75 * np.clip(normals @ LIGHT, 0.0, 1.0)) * CUP_SHADE_LEVELS)
+        # runs of camera-facing strips with the same shade level become one polygon
+        ks = np.nonzero(facing)[0]
+        if len(ks) and len(ks) < CUP_STRIPS:
+            start = int(np.nonzero(facing & ~np.roll(facing, 1))[0][0])  # where the arc begins
+            ks = (np.arange(len(ks)) + start) % CUP_STRIPS
+        run: list = []
+        for j, k in enumerate(ks):
+            run.append(int(k))
+            if j + 1 == len(ks) or shade[ks[j + 1]] != shade[k]:
+                last = (run[-1] + 1) % CUP_STRIPS
+                idx_b = run + [last]
+                poly = np.vstack([p_bot[idx_b], p_top[idx_b[::-1]]])
+                shapes.append(_Shape(poly, _shade(CUP_COLOUR, shade[k] / CUP_SHADE_LEVELS)))
+                run = []
+        lid_light = AMBIENT + 0.75 * float(LIGHT[2])
+        shapes.append(_Shape(p_top, _shade(CUP_TOP_COLOUR, lid_light)))
+        rim_line = (p_bot[np.nonzero(facing)[0]], _shade(CUP_COLOUR, 0.55), False)
+        lines = [(p_top, _shade(CUP_COLOUR, 0.6), True)]
+        if cup.lift > 0.002:
+            lines.append(rim_line)
+        marker, black, region = self._marker_parts(view, cup, disc=True)
+        return _Item(depth=float(depth[0]), shapes=shapes, lines=lines, marker=marker,
+                     target=cup.marker_id, target_region=region, target_corners=black)
+
+    def _ball_item(self, view: _View, bx: float, by: float) -> _Item:
+        centre3 = np.array([bx, by, BALL_RADIUS_M])
+        c, depth = view.project(centre3[None])
+        c, depth = c[0], float(depth[0])
+        r = view.f * BALL_RADIUS_M / depth
+        to_cam = view.cam_pos - centre3
+        to_cam /= np.linalg.norm(to_cam)
+        half = LIGHT + to_cam
+        hl, _ = view.project((centre3 + 0.75 * BALL_RADIUS_M * half / np.linalg.norm(half))[None])
+        hl = hl[0]
+        shapes = [_Shape(c + r * _CIRCLE32, _shade(BALL_COLOUR, 0.72))]
+        for k, (scale, gain) in enumerate(((0.86, 0.92), (0.66, 1.08), (0.42, 1.22))):
+            ck = c + (hl - c) * (1 - scale)
+            shapes.append(_Shape(ck + r * scale * _CIRCLE32, _shade(BALL_COLOUR, gain)))
+        shapes.append(_Shape(hl + r * 0.16 * _CIRCLE32, (170, 170, 245)))
+        outline = c + r * _CIRCLE32
+        return _Item(depth=depth, shapes=shapes, target=-1, target_region=outline, target_corners=outline)
+
+    def _arm_items(self, view: _View, pts3: np.ndarray) -> tuple[list, list]:
+        """(flat items, 3D items) for the arm's chain points (N, 3)."""
+        p, d = view.project(pts3)
+        flat = []
+        base = np.column_stack([pts3[0, 0] + ARM_BASE_RADIUS_M * _CIRCLE32[:, 0],
+                                pts3[0, 1] + ARM_BASE_RADIUS_M * _CIRCLE32[:, 1],
+                                np.full(len(_CIRCLE32), pts3[0, 2])])
+        base_px = view.project_polygon(base)
+        if base_px is not None:
+            flat.append(_Item(depth=0.0, shapes=[_Shape(base_px, ARM_BASE_COLOUR)],
+                              lines=[(base_px, _shade(ARM_BASE_COLOUR, 1.6), True)], flat=True))
+        items = []
+        mid3 = pts3[0] + 0.05 * LIGHT
+        l0, _ = view.project(np.array([pts3[0], mid3]))
+        light_dir = l0[1] - l0[0]
+        for i in range(len(pts3) - 1):
+            a, b = p[i], p[i + 1]
+            seg = b - a
+            length = float(np.hypot(*seg))
+            if length < 1e-6 or d[i] < NEAR_M or d[i + 1] < NEAR_M:
+                continue
+            u = seg / length
+            perp = np.array([-u[1], u[0]])
+            if perp @ light_dir < 0:
+                perp = -perp  # perp points towards the light
+            r = ARM_LINK_RADII_M[min(i, len(ARM_LINK_RADII_M) - 1)]
+            wa, wb = view.f * r / d[i], view.f * r / d[i + 1]
+            quad = lambda ka, kb, off: np.array([a + perp * wa * (off + ka), b + perp * wb * (off + kb),
+                                                  b + perp * wb * (off - kb), a + perp * wa * (off - ka)])
+            shapes = [_Shape(quad(1.0, 1.0, 0.0), ARM_LINK_EDGE),
+                      _Shape(quad(0.82, 0.82, 0.0), ARM_LINK_COLOUR),
+                      _Shape(quad(0.28, 0.28, 0.35), ARM_LINK_HIGHLIGHT)]
+            items.append(_Item(depth=float(d[i] + d[i + 1]) / 2, shapes=shapes))
+        last = len(pts3) - 1
+        for i in range(1, len(pts3)):
+            if d[i] < NEAR_M:
+                continue
+            tool = i == last
+            rr = view.f * (ARM_TOOL_RADIUS_M if tool else ARM_JOINT_RADIUS_M) / d[i]
+            colour = ARM_TOOL_COLOUR if tool else ARM_JOINT_COLOUR
+            hl = p[i] + light_dir / (np.hypot(*light_dir) + 1e-9) * rr * 0.3
+            shapes = [_Shape(p[i] + rr * _CIRCLE32, colour),
+                      _Shape(hl + rr * 0.45 * _CIRCLE32, _shade(colour, 1.5) if tool else (80, 80, 86))]
+            items.append(_Item(depth=float(d[i]) - 1e-4, shapes=shapes))
+        return flat, items
+
+    def _hand_item(self, view: _View, hand: Hand) -> Optional[_Item]:
+        pose = (hand.x, hand.y, hand.z, hand.yaw)
+        shapes = []
+        for outline in _HAND_OUTLINES:
+            px = view.project_polygon(self._local_to_base(pose, outline))
+            if px is not None:
+                shapes.append(_Shape(px, HAND_COLOUR))
+        if not shapes:
+            return None
+        lines = []
+        for gap in _HAND_GAPS:
+            px = view.project_polygon(self._local_to_base(pose, np.array(gap)))
+            if px is not None and len(px) == 2:
+                lines.append((px, HAND_DARK, False))
+        _, depth = view.project(np.array([[hand.x, hand.y, hand.z]]))
+        return _Item(depth=float(depth[0]), shapes=shapes, lines=lines)
+
+    def _shadow_polygons(self, st: SceneState, arm: Optional[np.ndarray]) -> list:
+        """Shadows cast on the desk (z = 0) by the lamp: a list of (M, 3) robot_base polygons."""
+        drop = np.array([LIGHT[0] / LIGHT[2], LIGHT[1] / LIGHT[2], 1.0])
+
+        def on_desk(pts: np.ndarray) -> np.ndarray:
+            return pts - pts[:, 2:3] * drop
+
+        polys = []
+        for cup in st.cups:
+            cs, sn = np.cos(_CUP_ANGLES), np.sin(_CUP_ANGLES)
+            pts = np.vstack([
+                np.column_stack([cup.x + self.cup_top_radius_m * cs, cup.y + self.cup_top_radius_m * sn,
+                                 np.full_like(cs, cup.lift + CUP_HEIGHT_M)]),
+                np.column_stack([cup.x + self.cup_rim_radius_m * cs, cup.y + self.cup_rim_radius_m * sn,
+                                 np.full_like(cs, cup.lift)]),
+            ])
+            flat = on_desk(pts)
+            hull = cv2.convexHull(flat[:, :2].astype(np.float32))[:, 0, :].astype(np.float64)
+            polys.append(np.column_stack([hull, np.zeros(len(hull))]))
+        if st.ball is not None:
+            c = on_desk(np.array([[st.ball.x, st.ball.y, BALL_RADIUS_M]]))[0]
+            circ = np.column_stack([c[0] + BALL_RADIUS_M * _CIRCLE32[:, 0] * 1.1,
+                                    c[1] + BALL_RADIUS_M * _CIRCLE32[:, 1] * 1.3, np.zeros(len(_CIRCLE32))])
+            polys.append(circ)
+        for hand in st.hands:
+            pose = (hand.x, hand.y, hand.z, hand.yaw)
+            for outline in _HAND_OUTLINES:
+                polys.append(on_desk(self._local_to_base(pose, outline)))
+        if arm is not None and len(arm) >= 2:
+            sh = on_desk(arm)
+            for i in range(len(sh) - 1):
+                seg = sh[i + 1, :2] - sh[i, :2]
+                length = float(np.hypot(*seg))
+                r = ARM_LINK_RADII_M[min(i, len(ARM_LINK_RADII_M) - 1)]
+                if length < 1e-6:
+                    continue
+                perp = np.array([-seg[1], seg[0]]) / length * r
+                a, b = sh[i, :2], sh[i + 1, :2]
+                quad = np.array([a + perp, b + perp, b - perp, a - perp])
+                polys.append(np.column_stack([quad, np.zeros(4)]))
+            for i in range(1, len(sh)):
+                r = ARM_TOOL_RADIUS_M if i == len(sh) - 1 else ARM_JOINT_RADIUS_M
+                polys.append(np.column_stack([sh[i, 0] + r * _CIRCLE32[:, 0], sh[i, 1] + r * _CIRCLE32[:, 1],
+                                              np.zeros(len(_CIRCLE32))]))
+        return polys
+
+    def _layout(self, view: _View, st: SceneState, arm: Optional[np.ndarray]) -> list:
+        """Items in painting order: flat things on the desk first, then far to near."""
+        flat, solid = [], []
+        if arm is not None:
+            f, s = self._arm_items(view, arm)
+            flat += f
+            solid += s
+        flat += [self._card_item(view, c) for c in st.cards]
+        solid += [self._cup_item(view, c) for c in st.cups]
+        if st.ball is not None:
+            ball_cup = next((c for c in st.cups if c.lift > 0.001), None) if st.cups else None
+            if ball_cup is not None or not st.cups:  # under a resting cup it cannot be seen
+                solid.append(self._ball_item(view, st.ball.x, st.ball.y))
+        for hand in st.hands:
+            item = self._hand_item(view, hand)
+            if item is not None:
+                solid.append(item)
+        solid.sort(key=lambda it: -it.depth)
+        return flat + solid
+
+    # -- truth -----------------------------------------------------------------------------
+
+    def _visibility(self, items: list, size: tuple[int, int]) -> dict[int, bool]:
+        """For each target: inside the image (with EDGE_MARGIN_PX) and not covered by a later item."""
+        w, h = size
+        m = EDGE_MARGIN_PX
+        out = {}
+        for idx, it in enumerate(items):
+            if it.target is None:
+                continue
+            c = it.target_corners
+            if not (np.all(c[:, 0] >= m) and np.all(c[:, 0] <= w - 1 - m)
+                    and np.all(c[:, 1] >= m) and np.all(c[:, 1] <= h - 1 - m)):
+                out[it.target] = False
+                continue
+            reg = it.target_region
+            x0, y0 = np.floor(reg.min(axis=0)).astype(int) - 1
+            x1, y1 = np.ceil(reg.max(axis=0)).astype(int) + 2
+            x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+            origin = np.array([x0, y0], dtype=float)
+            target = np.zeros((y1 - y0, x1 - x0), np.uint8)
+            _fill(target, reg - origin, 255, aa=False)
+            cover = np.zeros_like(target)
+            any_cover = False
+            for later in items[idx + 1:]:
+                if not later.occluder:
+                    continue
+                shapes = list(later.shapes)
+                if later.marker is not None:  # a card on top of another card hides it too
+                    shapes.append(_Shape(later.marker[2], 255))
+                for sh in shapes:
+                    lo, hi = sh.pts.min(axis=0), sh.pts.max(axis=0)
+                    if hi[0] < x0 or lo[0] > x1 or hi[1] < y0 or lo[1] > y1:
+                        continue
+                    _fill(cover, sh.pts - origin, 255, aa=False)
+                    any_cover = True
+            out[it.target] = not (any_cover and cv2.countNonZero(cv2.bitwise_and(target, cover)) > 0)
+        return out
+
+    def _truth(self, st: SceneState, layouts: dict) -> GroundTruth:
+        vis = {side: self._visibility(layouts[side], self._views[side].size) for side in SIDES}
+        objects = []
+        for card in st.cards:
+            objects.append(ObjectTruth(card.marker_id, (float(card.x), float(card.y), 0.0),
+                                       vis["left"].get(card.marker_id, False),
+                                       vis["right"].get(card.marker_id, False),
+                                       label=f"card {card.marker_id}"))
+        for cup in st.cups:
+            objects.append(ObjectTruth(cup.marker_id, (float(cup.x), float(cup.y), float(cup.lift + CUP_HEIGHT_M)),
+                                       vis["left"].get(cup.marker_id, False),
+                                       vis["right"].get(cup.marker_id, False), label=cup.label))
+        if st.ball is not None:
+            objects.append(ObjectTruth(-1, (float(st.ball.x), float(st.ball.y), BALL_RADIUS_M),
+                                       vis["left"].get(-1, False), vis["right"].get(-1, False), label="ball"))
+        return GroundTruth(objects=tuple(objects), pointing_target_id=st.pointing_target_id)
+
+    def truth(self, t: float, arm_points: Optional[np.ndarray] = None) -> GroundTruth:
+        """The ground truth ``render`` would return at t, without drawing any pixels."""
+        st = self.scene(t)
+        arm = self._check_arm(arm_points)
+        layouts = {side: self._layout(self._views[side], st, arm) for side in SIDES}
+        return self._truth(st, layouts)
+
+    # -- drawing -----------------------------------------------------------------------------
+
+    def _composite_marker(self, img: np.ndarray, marker: tuple) -> None:
+        marker_id, H, paper_px, disc = marker
+        h_img, w_img = img.shape[:2]
+        x0, y0 = np.floor(paper_px.min(axis=0)).astype(int) - 1
+        x1, y1 = np.ceil(paper_px.max(axis=0)).astype(int) + 2
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
+        if x1 <= x0 or y1 <= y0:
+            return
+        S = SUPERSAMPLE
+        # supersampled patch pixel (xs, ys) has its centre at image x0 - 0.5 + (xs + 0.5) / S
+        to_patch = np.array([[S, 0.0, (0.5 - x0) * S - 0.5], [0.0, S, (0.5 - y0) * S - 0.5], [0.0, 0.0, 1.0]])
+        tex = self._textures[(marker_id, disc)]
+        sup = cv2.warpPerspective(tex, to_patch @ H, ((x1 - x0) * S, (y1 - y0) * S), flags=cv2.INTER_LINEAR,
+                                  borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
+        small = cv2.resize(sup, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
+        # premultiplied "over": roi · (1 − α) + colour·α, in 8-bit ops (±1 level)
+        roi = img[y0:y1, x0:x1]
+        keep = cv2.subtract(255, small[..., 3])
+        cv2.multiply(roi, cv2.merge([keep, keep, keep]), dst=roi, scale=1.0 / 255.0)
+        cv2.add(roi, np.ascontiguousarray(small[..., :3]), dst=roi)
+
+    def _draw_shadows(self, img: np.ndarray, view: _View, polys3: list) -> None:
+        if not polys3:
+            return
+        h_img, w_img = img.shape[:2]
+        polys = [p for p in (view.project_polygon(q) for q in polys3) if p is not None]
+        if not polys:
+            return
+        allp = np.vstack(polys)
+        pad = int(3 * SHADOW_BLUR_PX) + 2
+        x0, y0 = np.floor(allp.min(axis=0)).astype(int) - pad
+        x1, y1 = np.ceil(allp.max(axis=0)).astype(int) + pad
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
+        if x1 <= x0 or y1 <= y0:
+            return
+        mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        origin = np.array([x0, y0], dtype=float)
+        level = int(round(255 * SHADOW_DARKNESS))
+        for p in polys:
+            _fill(mask, p - origin, level)
+        mask = cv2.GaussianBlur(mask, (0, 0), SHADOW_BLUR_PX)
+        light = cv2.merge([cv2.subtract(255, mask)] * 3)
+        roi = img[y0:y1, x0:x1]
+        cv2.multiply(roi, light, dst=roi, scale=1.0 / 255.0)
+
+    def _draw(self, view: _View, items: list, shadows3: list) -> np.ndarray:
+        img = view.desk.copy()
+        n_flat = sum(1 for it in items if it.flat)
+        for idx, it in enumerate(items):
+            if idx == n_flat:
+                self._draw_shadows(img, view, shadows3)
+            for sh in it.shapes:
+                _fill(img, sh.pts, sh.colour)
+            for pts, colour, closed in it.lines:
+                cv2.polylines(img, [np.round(pts * 16.0).astype(np.int32)], closed, colour, 1,
+                              lineType=cv2.LINE_AA, shift=4)
+            if it.marker is not None:
+                self._composite_marker(img, it.marker)
+        if n_flat == len(items):
+            self._draw_shadows(img, view, shadows3)
+        return img
+
+    def _finish(self, img: np.ndarray, t: float, side_index: int) -> np.ndarray:
+        """Camera controls (LUT), lens blur and sensor noise, seeded by (seed, t, side)."""
+        if self._lut is not None:
+            cv2.LUT(img, self._lut, dst=img)
+        if self.blur_sigma_px > 0:
+            img = cv2.GaussianBlur(img, self._blur_ksize, self.blur_sigma_px)
+        sigma = self.effective_noise_sigma
+        if sigma > 0:
+            # luma noise (one value per pixel, all channels), like a webcam after its chroma
+            # denoiser; a third of the cost of per-channel noise (cv2.randn is ~2 ns per value)
+            h, w = img.shape[:2]
+            noise = np.empty((h, w), np.float32)
+            key = struct.pack("<qdq", self.seed, float(t), side_index)
+            cv2.setRNGSeed(zlib.crc32(key) & 0x7FFFFFFF)
+            cv2.randn(noise, 0.0, sigma)
+            img = cv2.add(img, cv2.cvtColor(noise, cv2.COLOR_GRAY2BGR), dtype=cv2.CV_8U)
+        return img
+
+    @staticmethod
+    def _check_arm(arm_points) -> Optional[np.ndarray]:
+        if arm_points is None:
+            return None
+        arm = np.asarray(arm_points, dtype=float)
+        if arm.ndim != 2 or arm.shape[1] != 3 or len(arm) < 1:
+            raise ValueError(f"arm_points must be an (N, 3) array of robot_base points, got shape {arm.shape}")
+        if not np.all(np.isfinite(arm)):
+            return None
+        return arm
+
+    def render(self, t: float, arm_points: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray, GroundTruth]:
+        """Left and right BGR uint8 images at scenario time t (s), and the ground truth.
+
+        ``arm_points``: (N, 3) chain points base → shoulder → elbow → tool in robot_base (m), or None.
+        """
+        t = float(t)
+        st = self.scene(t)
+        arm = self._check_arm(arm_points)
+        shadows3 = self._shadow_polygons(st, arm)
+        layouts, images = {}, []
+        for i, side in enumerate(SIDES):
+            view = self._views[side]
+            layouts[side] = items = self._layout(view, st, arm)
+            images.append(self._finish(self._draw(view, items, shadows3), t, i))
+        return images[0], images[1], self._truth(st, layouts)
+
+    def stereo_frame(self, seq: int, t: float, arm_points: Optional[np.ndarray] = None) -> StereoFrame:
+        """``render`` packed as a StereoFrame (capture time = t)."""
+        left, right, truth = self.render(t, arm_points)
+        return StereoFrame(seq=seq, t=float(t), left=left, right=right, truth=truth)

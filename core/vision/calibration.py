@@ -1,0 +1,278 @@
+"""Stereo calibration: the one YAML file (cv2.FileStorage, OpenCV sample keys) and its loader.
+
+The simulated rig writes its exact calibration through ``save_calibration`` and the app reads it
+back through ``load_calibration`` — the same path a real calibration takes.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping, Optional, Union
+
+import cv2
+import numpy as np
+
+
+class CalibrationError(ValueError):
+    """A calibration file is missing, corrupt or does not fit the cameras."""
+
+
+@dataclass(frozen=True, eq=False)
+class StereoCalibration:
+    """Intrinsics of both cameras, the right camera's pose and the rectification derived from it.
+
+    ``R``, ``T`` map a point from camera_left to camera_right: ``X_right = R @ X_left + T``
+    (OpenCV's stereoCalibrate convention). Metres.
+    """
+
+    M1: np.ndarray  # 3x3 left camera matrix (px)
+    D1: np.ndarray  # left distortion coefficients (1xN)
+    M2: np.ndarray  # 3x3 right camera matrix
+    D2: np.ndarray
+    R: np.ndarray  # 3x3 rotation camera_left -> camera_right
+    T: np.ndarray  # (3,1) translation camera_left -> camera_right (m)
+    image_size: tuple[int, int]  # (width, height) px
+    rms_stereo: float = 0.0  # stereo reprojection RMS of the calibration (px)
+    epipolar_error_px: float = 0.0  # mean epipolar error of the calibration pairs (px)
+    source: str = ""  # file it was read from, for messages
+    notes: tuple[str, ...] = ()  # e.g. "intrinsics rescaled from 1280x960"
+    rect: dict = field(default_factory=dict, repr=False)  # filled in __post_init__
+
+    def __post_init__(self) -> None:
+        T = np.asarray(self.T, dtype=np.float64).reshape(3, 1)  # OpenCV 5 needs (3,1)
+        object.__setattr__(self, "T", T)
+        w, h = self.image_size
+        R1, R2, P1, P2, Q, roi1, roi2 = cv2.stereoRectify(
+            self.M1, self.D1, self.M2, self.D2, (w, h), self.R, T,
+            flags=cv2.CALIB_ZERO_DISPARITY, alpha=0,
+        )
+        tx = T.reshape(3)
+        E = _skew(tx) @ self.R
+        F = np.linalg.inv(self.M2).T @ E @ np.linalg.inv(self.M1)
+        self.rect.update(R1=R1, R2=R2, P1=P1, P2=P2, Q=Q, E=E, F=F / F[2, 2] if abs(F[2, 2]) > 1e-12 else F)
+
+    # Rectification products (as stereoRectify computes them)
+    @property
+    def R1(self) -> np.ndarray:
+        return self.rect["R1"]
+
+    @property
+    def R2(self) -> np.ndarray:
+        return self.rect["R2"]
+
+    @property
+    def P1(self) -> np.ndarray:
+        return self.rect["P1"]
+
+    @property
+    def P2(self) -> np.ndarray:
+        return self.rect["P2"]
+
+    @property
+    def Q(self) -> np.ndarray:
+        return self.rect["Q"]
+
+    @property
+    def E(self) -> np.ndarray:
+        return self.rect["E"]
+
+    @property
+    def F(self) -> np.ndarray:
+        return self.rect["F"]
+
+    @property
+    def baseline_m(self) -> float:
+        return float(np.linalg.norm(self.T))
+
+    def rectify_maps(self, m1type: int = cv2.CV_16SC2):
+        """(left_maps, right_maps) for cv2.remap into the rectified pair."""
+        size = self.image_size
+        left = cv2.initUndistortRectifyMap(self.M1, self.D1, self.R1, self.P1, size, m1type)
+        right = cv2.initUndistortRectifyMap(self.M2, self.D2, self.R2, self.P2, size, m1type)
+        return left, right
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    x, y, z = (float(a) for a in v)
+    return np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]], dtype=np.float64)
+
+
+_MATRIX_KEYS = ("M1", "D1", "M2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q")
+
+
+def save_calibration(path: str | os.PathLike, calib: StereoCalibration,
+                     extra: Optional[Mapping[str, Union[int, float, str]]] = None) -> Path:
+    """Write ``calib`` as one YAML file with the keys of OpenCV's stereo_calib sample.
+
+    ``extra`` adds scalar keys (e.g. rms_left, pairs_used, board) that the loader ignores.
+    """
+    path = Path(path)
+    for key in extra or {}:
+        if key in _MATRIX_KEYS or key in ("image_width", "image_height", "rms_stereo", "epipolar_error_px"):
+            raise ValueError(f"extra key {key!r} would overwrite a calibration key")
+        if not key.isidentifier():
+            raise ValueError(f"extra key {key!r} is not a valid YAML/FileStorage name")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp.yaml")
+    fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+    try:
+        for key in _MATRIX_KEYS:
+            fs.write(key, np.asarray(getattr(calib, key), dtype=np.float64))
+        fs.write("image_width", int(calib.image_size[0]))
+        fs.write("image_height", int(calib.image_size[1]))
+        fs.write("rms_stereo", float(calib.rms_stereo))
+        fs.write("epipolar_error_px", float(calib.epipolar_error_px))
+        for key, value in (extra or {}).items():
+            fs.write(key, value if isinstance(value, str) else float(value) if isinstance(value, float) else int(value))
+    finally:
+        fs.release()
+    os.replace(tmp, path)  # never leave a half-written calibration behind
+    return path
+
+
+_EXPECTED_SHAPES = {"M1": (3, 3), "M2": (3, 3), "R": (3, 3)}
+
+
+def load_calibration(
+    path: str | os.PathLike, expected_size: Optional[tuple[int, int]] = None
+) -> StereoCalibration:
+    """Read a stereo calibration YAML; validate shapes; fit it to ``expected_size`` if given.
+
+    A file for another resolution with the same aspect ratio has its intrinsics rescaled (and
+    says so in ``notes``); any other mismatch raises CalibrationError naming the problem.
+    """
+    path = Path(path)
+    fix = "run `deskarm calibrate` again or pick another file"
+    if not path.is_file():
+        raise CalibrationError(f"{path}: calibration file not found — {fix}")
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as exc:  # OpenCV 5 raises SystemError on parse errors
+        first = str(exc).strip().splitlines()[-1] if str(exc).strip() else "unreadable"
+        raise CalibrationError(f"{path}: not a readable OpenCV YAML/XML file ({first}) — {fix}") from None
+    try:
+        if not fs.isOpened():
+            raise CalibrationError(f"{path}: not a readable OpenCV YAML/XML file — {fix}")
+        values = {}
+        for key in ("M1", "D1", "M2", "D2", "R", "T"):
+            node = fs.getNode(key)
+            mat = None if node.empty() else node.mat()
+            if mat is None:
+                raise CalibrationError(f"{path}: key '{key}' is missing or not a matrix — {fix}")
+            values[key] = np.asarray(mat, dtype=np.float64)
+        width = fs.getNode("image_width").real()
+        height = fs.getNode("image_height").real()
+        rms = fs.getNode("rms_stereo").real()
+        epi = fs.getNode("epipolar_error_px").real()
+    finally:
+        fs.release()
+    for key, shape in _EXPECTED_SHAPES.items():
+        if values[key].shape != shape:
+            raise CalibrationError(
+                f"{path}: '{key}' has shape {values[key].shape}, expected {shape} — {fix}"
+            )
+    if values["T"].size != 3:
+        raise CalibrationError(f"{path}: 'T' has {values['T'].size} values, expected 3 — {fix}")
+    for key in ("D1", "D2"):
+        if values[key].size not in (4, 5, 8, 12, 14):
+            raise CalibrationError(
+                f"{path}: '{key}' has {values[key].size} coefficients, expected 4, 5, 8, 12 or 14 — {fix}"
+            )
+        values[key] = values[key].reshape(1, -1)
+    for key, mat in values.items():
+        if not np.all(np.isfinite(mat)):
+            raise CalibrationError(f"{path}: '{key}' contains NaN or infinity — {fix}")
+    if not (width >= 16 and height >= 16):
+        raise CalibrationError(
+            f"{path}: image_width/image_height missing or invalid ({width:g}x{height:g}) — {fix}"
+        )
+    if abs(np.linalg.det(values["R"]) - 1.0) > 1e-3:
+        raise CalibrationError(f"{path}: 'R' is not a rotation matrix (det ≠ 1) — {fix}")
+    size = (int(width), int(height))
+    notes: list[str] = []
+    if expected_size is not None and tuple(expected_size) != size:
+        ew, eh = expected_size
+        if not math.isclose(ew / eh, size[0] / size[1], rel_tol=1e-3):
+            raise CalibrationError(
+                f"{path}: calibrated for {size[0]}x{size[1]} but the cameras deliver {ew}x{eh} "
+                f"(another aspect ratio) — calibrate at {ew}x{eh} or set the cameras to {size[0]}x{size[1]}"
+            )
+        scale = ew / size[0]
+        for key in ("M1", "M2"):
+            m = values[key].copy()
+            m[:2, :] *= scale
+            values[key] = m
+        notes.append(f"intrinsics rescaled from {size[0]}x{size[1]} to {ew}x{eh}")
+        size = (int(ew), int(eh))
+    return StereoCalibration(
+        M1=values["M1"], D1=values["D1"], M2=values["M2"], D2=values["D2"], R=values["R"],
+        T=values["T"].reshape(3, 1), image_size=size, rms_stereo=float(rms),
+        epipolar_error_px=float(epi), source=str(path), notes=tuple(notes),
+    )
+
+
+def ros_camera_info_yaml(calib: StereoCalibration, side: str, camera_name: str = "") -> str:
+    """One camera of the pair as a ROS ``camera_info`` YAML (camera_calibration_parsers format):
+    K, D (plumb_bob, or rational_polynomial for 8 coefficients), the rectifying R and projection P."""
+    if side not in ("left", "right"):
+        raise ValueError(f"side {side!r}; valid: left, right")
+    M, D, R, P = ((calib.M1, calib.D1, calib.R1, calib.P1) if side == "left"
+                  else (calib.M2, calib.D2, calib.R2, calib.P2))
+    d = np.asarray(D, np.float64).reshape(-1)
+    if d.size == 4:
+        d = np.append(d, 0.0)
+    model = "plumb_bob" if d.size == 5 else "rational_polynomial"
+    if d.size > 8:  # ROS has no thin-prism/tilted model: keep the rational part
+        d = d[:8]
+
+    def mat(name: str, m: np.ndarray) -> str:
+        m = np.asarray(m, np.float64)
+        rows, cols = (1, m.size) if m.ndim == 1 else m.shape
+        data = ", ".join(f"{v:.10g}" for v in m.reshape(-1))
+        return f"{name}:\n  rows: {rows}\n  cols: {cols}\n  data: [{data}]\n"
+
+    w, h = calib.image_size
+    return (f"image_width: {w}\nimage_height: {h}\ncamera_name: {camera_name or side}\n"
+            + mat("camera_matrix", M) + f"distortion_model: {model}\n" + mat("distortion_coefficients", d)
+            + mat("rectification_matrix", R) + mat("projection_matrix", P))
+
+
+def export_ros_camera_info(calib: StereoCalibration, folder: str | os.PathLike,
+                           names: tuple[str, str] = ("left", "right")) -> list[Path]:
+    """Write ``left.yaml`` and ``right.yaml`` (ROS camera_info) into ``folder``; returns the paths.
+
+    The right camera's P carries Tx = −fx'·baseline (m), as ROS stereo_image_proc expects.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for side, name in zip(("left", "right"), names):
+        path = folder / f"{name}.yaml"
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(ros_camera_info_yaml(calib, side, name))
+        os.replace(tmp, path)
+        out.append(path)
+    return out
+
+
+INSTALLED_NAME = "calibration.yaml"
+PREVIOUS_NAME = "calibration.previous.yaml"
+
+
+def installed_calibration_path() -> Path:
+    """Where the app looks for the stereo calibration at start (``<config>/calibration.yaml``)."""
+    from core.paths import user_dir  # late: core.session imports this module
+
+    return user_dir("config") / INSTALLED_NAME
+
+
+def install_calibration(calib: StereoCalibration,
+                        extra: Optional[Mapping[str, Union[int, float, str]]] = None) -> Path:
+    """Make ``calib`` the app's calibration; the one it replaces is kept as calibration.previous.yaml."""
+    target = installed_calibration_path()
+    if target.exists():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(target, target.with_name(PREVIOUS_NAME))
+    return save_calibration(target, calib, extra)

@@ -1,0 +1,319 @@
+"""Stereo ArUco perception: detect markers in both views, match by id, triangulate, map to the base.
+
+Speed comes from searching only near each marker's last position (a small crop per marker and
+view) and running a full-frame detection every ``full_search_every`` frames or when a marker is
+lost. Rectification is applied to the detected corner points (``cv2.undistortPoints`` with the
+rectifying R and P) rather than to whole images: the result equals detection in remapped images
+without the interpolation, and costs microseconds instead of a millisecond.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Iterable, Optional, Sequence
+
+import cv2
+import numpy as np
+
+from core.messages import MarkerObservation, PerceptionResult, StereoFrame, as_point
+from core.vision.calibration import StereoCalibration
+
+ARUCO_DICTIONARIES = {
+    "DICT_4X4_50": cv2.aruco.DICT_4X4_50,
+    "DICT_5X5_100": cv2.aruco.DICT_5X5_100,
+    "DICT_6X6_250": cv2.aruco.DICT_6X6_250,
+    "DICT_7X7_250": cv2.aruco.DICT_7X7_250,
+    "DICT_ARUCO_ORIGINAL": cv2.aruco.DICT_ARUCO_ORIGINAL,
+}
+
+
+def make_detector(dictionary: str = "DICT_6X6_250", fast: bool = False) -> cv2.aruco.ArucoDetector:
+    """An ArUco detector with contour corner refinement (best stereo depth, see TECH_NOTES).
+
+    ``fast`` uses one adaptive-threshold window (15 px) and a higher threshold constant: on a
+    textured desk that cuts the candidate contours ~5x (0.9 ms instead of 4.5 ms per 640x480
+    image here) and, with 4 triangulated corners, halves the 3D error. The default parameters
+    (windows 3…23 px) are kept for re-acquiring a lost marker in hard light.
+    """
+    if dictionary not in ARUCO_DICTIONARIES:
+        raise ValueError(
+            f"unknown ArUco dictionary {dictionary!r}; valid: {', '.join(ARUCO_DICTIONARIES)}"
+        )
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_CONTOUR
+    if fast:
+        params.adaptiveThreshWinSizeMin = 15
+        params.adaptiveThreshWinSizeMax = 15
+        params.adaptiveThreshConstant = 15
+    return cv2.aruco.ArucoDetector(
+        cv2.aruco.getPredefinedDictionary(ARUCO_DICTIONARIES[dictionary]),
+        params,
+        cv2.aruco.RefineParameters(),
+    )
+
+
+def detect_markers(detector, bgr: np.ndarray, offset=(0, 0)) -> dict[int, np.ndarray]:
+    """Detect markers in a BGR (or grey) image; corners (4,2) float64 shifted by ``offset``."""
+    grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
+    corners, ids, _ = detector.detectMarkers(grey)
+    found: dict[int, np.ndarray] = {}
+    if ids is None:
+        return found
+    for c, i in zip(corners, np.asarray(ids).reshape(-1)):
+        found[int(i)] = np.asarray(c, dtype=np.float64).reshape(4, 2) + offset
+    return found
+
+
+def quad_centre(c: np.ndarray) -> np.ndarray:
+    """Centre of a projected square: the intersection of its diagonals (projectively exact)."""
+    p0, p1, p2, p3 = c
+    d1, d2 = p2 - p0, p3 - p1
+    den = d1[0] * d2[1] - d1[1] * d2[0]
+    if abs(den) < 1e-12:
+        return c.mean(axis=0)
+    s = ((p1[0] - p0[0]) * d2[1] - (p1[1] - p0[1]) * d2[0]) / den
+    return p0 + s * d1
+
+
+@dataclass
+class _Track:
+    """What perception remembers about one marker between frames."""
+
+    left: Optional[np.ndarray] = None  # last corners in the raw left image
+    right: Optional[np.ndarray] = None
+    velocity_left: np.ndarray = None  # px/frame of the centre, for the search window
+    velocity_right: np.ndarray = None
+    frames_since_seen: int = 0
+    camera_p: Optional[tuple] = None
+    base_p: Optional[tuple] = None
+
+
+class StereoMarkerPerception:
+    """Find ArUco markers in a stereo pair and locate their centres in robot_base.
+
+    ``base_T_camera`` is the 4x4 pose of camera_left in robot_base. ``marker_ids`` lists the ids
+    to report even when lost (others are reported while seen). Not thread-safe: one per worker.
+    """
+
+    def __init__(
+        self,
+        calib: StereoCalibration,
+        base_T_camera: np.ndarray,
+        marker_ids: Sequence[int] = (23, 50),
+        dictionary: str = "DICT_6X6_250",
+        full_search_every: int = 15,
+        search_margin: float = 0.8,
+    ):
+        self.calib = calib
+        self.base_T_camera = np.asarray(base_T_camera, dtype=np.float64)
+        self.camera_T_rect = calib.R1.T  # rectified-left -> camera_left rotation
+        self.marker_ids = tuple(int(i) for i in marker_ids)
+        self.detector = make_detector(dictionary, fast=True)
+        self.robust_detector = make_detector(dictionary)
+        self.robust_every = 10  # frames between robust full searches while a marker is missing
+        self.full_search_every = max(1, int(full_search_every))
+        self.search_margin = float(search_margin)  # crop border, in marker sizes
+        self.tracks: dict[int, _Track] = {i: _Track() for i in self.marker_ids}
+        self.frames = 0
+
+    def reset(self) -> None:
+        """Forget every track (next frame runs a full-frame search)."""
+        self.tracks = {i: _Track() for i in self.marker_ids}
+        self.frames = 0
+
+    # --- detection -------------------------------------------------------------------------
+    def _search_windows(self, side: str, shape) -> Optional[list[tuple[int, int, int, int]]]:
+        """Crops (x0, y0, x1, y1) around the predicted markers, or None for a full search."""
+        h, w = shape[:2]
+        boxes = []
+        for track in self.tracks.values():
+            corners = track.left if side == "left" else track.right
+            if corners is None or track.frames_since_seen > 0:
+                return None  # lost or never seen: search everywhere
+            vel = track.velocity_left if side == "left" else track.velocity_right
+            predicted = corners + (vel if vel is not None else 0.0)
+            size = float(np.max(np.ptp(predicted, axis=0)))
+            margin = self.search_margin * size + 4.0
+            lo = np.minimum(predicted.min(axis=0), corners.min(axis=0)) - margin
+            hi = np.maximum(predicted.max(axis=0), corners.max(axis=0)) + margin
+            x0, y0 = max(0, int(lo[0])), max(0, int(lo[1]))
+            x1, y1 = min(w, int(np.ceil(hi[0])) + 1), min(h, int(np.ceil(hi[1])) + 1)
+            if x1 - x0 < 8 or y1 - y0 < 8:
+                return None
+            boxes.append((x0, y0, x1, y1))
+        return _merge_boxes(boxes)
+
+    def _detect_view(self, side: str, image: np.ndarray, force_full: bool):
+        """Markers found in one view and whether a full-frame search ran."""
+        windows = None if force_full else self._search_windows(side, image.shape)
+        if windows is not None:
+            found: dict[int, np.ndarray] = {}
+            for x0, y0, x1, y1 in windows:
+                found.update(detect_markers(self.detector, image[y0:y1, x0:x1], (x0, y0)))
+            if all(i in found for i in self.tracks):
+                return found, False
+        # periodic search, or a tracked marker left its window: look everywhere on this frame
+        found = detect_markers(self.detector, image)
+        missing = [i for i in self.tracks if i not in found]
+        if missing and self._robust_allowed(missing):
+            for marker_id, corners in detect_markers(self.robust_detector, image).items():
+                found.setdefault(marker_id, corners)
+        return found, True
+
+    def _robust_allowed(self, missing) -> bool:
+        """Robust (slow) search right after a loss, then every ``robust_every`` frames."""
+        recent = any(self.tracks[i].frames_since_seen <= 2 for i in missing)
+        return recent or self.frames % self.robust_every == 0
+
+    # --- geometry --------------------------------------------------------------------------
+    def rectify_points(self, side: str, pts: np.ndarray) -> np.ndarray:
+        """Raw pixel points (N,2) -> rectified pixel points (N,2) of the given view."""
+        c = self.calib
+        M, D, R, P = (c.M1, c.D1, c.R1, c.P1) if side == "left" else (c.M2, c.D2, c.R2, c.P2)
+        out = cv2.undistortPoints(np.asarray(pts, np.float64).reshape(-1, 1, 2), M, D, R=R, P=P)
+        return out.reshape(-1, 2)
+
+    def triangulate_rectified(self, left_pts: np.ndarray, right_pts: np.ndarray) -> np.ndarray:
+        """Points (N,3) in camera_left from rectified pixel matches (N,2) each."""
+        X = cv2.triangulatePoints(
+            self.calib.P1, self.calib.P2,
+            np.ascontiguousarray(left_pts.T, np.float64), np.ascontiguousarray(right_pts.T, np.float64),
+        )
+        rect_p = (X[:3] / X[3]).T
+        return rect_p @ self.camera_T_rect.T
+
+    def camera_to_base(self, camera_p: np.ndarray) -> np.ndarray:
+        """camera_left points (N,3) -> robot_base points (N,3)."""
+        return camera_p @ self.base_T_camera[:3, :3].T + self.base_T_camera[:3, 3]
+
+    # --- one frame -------------------------------------------------------------------------
+    def process(self, frame: StereoFrame) -> PerceptionResult:
+        """Detect, match, triangulate and update tracks for one stereo frame."""
+        t0 = time.perf_counter()
+        self.frames += 1
+        force_full = self.frames % self.full_search_every == 1 or self.full_search_every == 1
+        left, full_l = self._detect_view("left", frame.left, force_full)
+        right, full_r = self._detect_view("right", frame.right, force_full)
+        t1 = time.perf_counter()
+
+        matched = sorted(set(left) & set(right))
+        observations: dict[int, MarkerObservation] = {}
+        if matched:
+            raw_l = np.concatenate([left[i] for i in matched])
+            raw_r = np.concatenate([right[i] for i in matched])
+            rect_l = self.rectify_points("left", raw_l)
+            rect_r = self.rectify_points("right", raw_r)
+            t2 = time.perf_counter()
+            # all four corners, then their mean: the centre of a square, with the corner noise
+            # averaged (2x smaller 3D error than triangulating the diagonal intersection)
+            camera_p = self.triangulate_rectified(rect_l, rect_r).reshape(-1, 4, 3).mean(axis=1)
+            rect_l, rect_r = rect_l.reshape(-1, 4, 2), rect_r.reshape(-1, 4, 2)
+            dy = rect_l[:, :, 1].mean(axis=1) - rect_r[:, :, 1].mean(axis=1)
+            base_p = self.camera_to_base(camera_p)
+            for k, marker_id in enumerate(matched):
+                observations[marker_id] = MarkerObservation(
+                    marker_id=marker_id,
+                    found=True,
+                    left_corners=_as_corners(left[marker_id]),
+                    right_corners=_as_corners(right[marker_id]),
+                    camera_p_centre=as_point(camera_p[k]),
+                    base_p_centre=as_point(base_p[k]),
+                    epipolar_dy_px=float(dy[k]),
+                )
+        else:
+            t2 = time.perf_counter()
+        t3 = time.perf_counter()
+
+        self._update_tracks(left, right, observations)
+        for marker_id, track in self.tracks.items():
+            if marker_id not in observations:
+                observations[marker_id] = MarkerObservation(
+                    marker_id=marker_id,
+                    found=False,
+                    left_corners=_as_corners(left.get(marker_id)),
+                    right_corners=_as_corners(right.get(marker_id)),
+                    base_p_centre=track.base_p,  # last known position, for display
+                    camera_p_centre=track.camera_p,
+                    frames_since_seen=track.frames_since_seen,
+                )
+        t4 = time.perf_counter()
+        timings = {
+            "detect": (t1 - t0) * 1e3,
+            "rectify": (t2 - t1) * 1e3,
+            "triangulate": (t3 - t2) * 1e3,
+            "total": (t4 - t0) * 1e3,
+        }
+        return PerceptionResult(
+            seq=frame.seq,
+            t=frame.t,
+            markers=tuple(observations[i] for i in sorted(observations)),
+            timings_ms=timings,
+            full_frame_search=full_l or full_r,
+            frame=frame,
+        )
+
+    def _update_tracks(self, left, right, observations) -> None:
+        for marker_id in set(left) | set(right) | set(self.tracks):
+            track = self.tracks.get(marker_id)
+            if track is None:
+                track = self.tracks[marker_id] = _Track()
+            seen_l, seen_r = left.get(marker_id), right.get(marker_id)
+            track.velocity_left = _velocity(track.left, seen_l, track.frames_since_seen)
+            track.velocity_right = _velocity(track.right, seen_r, track.frames_since_seen)
+            if seen_l is not None:
+                track.left = seen_l
+            if seen_r is not None:
+                track.right = seen_r
+            obs = observations.get(marker_id)
+            if obs is not None:
+                track.frames_since_seen = 0
+                track.camera_p, track.base_p = obs.camera_p_centre, obs.base_p_centre
+            else:
+                track.frames_since_seen += 1
+        # markers not asked for and unseen for long are forgotten (wandering extra ids)
+        for marker_id in [i for i, t in self.tracks.items() if i not in self.marker_ids and t.frames_since_seen > 30]:
+            del self.tracks[marker_id]
+
+
+def _velocity(prev: Optional[np.ndarray], now: Optional[np.ndarray], gap: int):
+    if prev is None or now is None or gap > 0:
+        return None
+    return now - prev
+
+
+def _as_corners(c: Optional[np.ndarray]) -> tuple:
+    if c is None:
+        return ()
+    return tuple((float(x), float(y)) for x, y in c)
+
+
+def _merge_boxes(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
+    """Merge overlapping crops so a marker is never cut in two by adjacent windows."""
+    merged = list(boxes)
+    changed = True
+    while changed:
+        changed = False
+        out: list[tuple[int, int, int, int]] = []
+        for b in merged:
+            for k, o in enumerate(out):
+                if b[0] < o[2] and o[0] < b[2] and b[1] < o[3] and o[1] < b[3]:
+                    out[k] = (min(b[0], o[0]), min(b[1], o[1]), max(b[2], o[2]), max(b[3], o[3]))
+                    changed = True
+                    break
+            else:
+                out.append(b)
+        merged = out
+    return merged
+
+
+def marker_positions(result: PerceptionResult, found_only: bool = True) -> dict[int, np.ndarray]:
+    """{id: base_p_centre} from a perception result."""
+    out = {}
+    for m in result.markers:
+        if m.base_p_centre is not None and (m.found or not found_only):
+            out[m.marker_id] = np.asarray(m.base_p_centre)
+    return out
+
+
+def iter_found(result: PerceptionResult) -> Iterable[MarkerObservation]:
+    return (m for m in result.markers if m.found)
