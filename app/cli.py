@@ -31,6 +31,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
     p.add_argument("--json", action="store_true", help="headless: end with one JSON object of metrics")
+    p.add_argument("--tick-driven", action="store_true",
+                   help="run the control step only on its 50 Hz tick (a new goal waits for it); "
+                        "default: at once on each new goal — kept to compare latencies")
     p.add_argument("--screenshot", metavar="PATH", help="render the window offscreen and save a PNG")
     p.add_argument("--after", type=float, default=2.0, help="screenshot: seconds of the scenario first (default: 2)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default: 1280x800)")
@@ -66,6 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     options = SessionOptions(
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
+        event_driven=not args.tick_driven,
     )
     try:
         options.validate()

@@ -1,8 +1,9 @@
 """The headless runner: the window's pipeline without a window, with metrics.
 
 It drives the same core objects the workers drive (``DeskSession``): camera frames at the
-camera rate, perception on each frame, targeting, and the control step at a fixed 50 Hz that
-writes to the motor bridge. With ``fast`` it runs on a simulated clock as fast as the machine
+camera rate, perception on each frame, targeting, and the control step that writes to the
+motor bridge when the session's ``ControlSchedule`` says so (at once for each new goal, else
+on the 50 Hz tick). With ``fast`` it runs on a simulated clock as fast as the machine
 allows. No Qt is imported here.
 """
 from __future__ import annotations
@@ -45,6 +46,9 @@ class RunMetrics:
     wall_s: float = 0.0
     sim_s: float = 0.0
     full_searches: int = 0
+    frames_reused: int = 0  # frames the source repeated, whose perception answer was reused
+    event_steps: int = 0  # control steps run at once for a new goal
+    tick_steps: int = 0  # control steps run on the 50 Hz tick
 
     def summary(self) -> dict:
         def r(v, nd=3):
@@ -66,6 +70,9 @@ class RunMetrics:
             "reach_error_mm_p50": r(percentile(self.reach_error_mm, 50)),
             "unreachable_commands": self.unreachable_commands,
             "full_frame_searches": self.full_searches,
+            "frames_reused": self.frames_reused,
+            "control_steps_event": self.event_steps,
+            "control_steps_tick": self.tick_steps,
             "duration_s": r(self.sim_s, 2),
         }
 
@@ -101,28 +108,29 @@ class HeadlessRunner:
         self._cmd_source_wall: dict[int, float] = {}
         self._last_target = None
         self._target_since = 0.0
+        self._ball = None  # cups: the ball found in the last computed frame
+        self.schedule = None
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
         clock = s.clock
         s.bridge.connect()
+        schedule = self.schedule = s.control_schedule()
         state = s.bridge.joint_state()
         if state is not None and hasattr(s.camera, "set_arm_points"):
             s.camera.set_arm_points(s.kinematics.chain_points(state.q))
         t0 = clock.now()
         wall0 = time.perf_counter()
-        next_control = t0
         next_status = t0 + 1.0
-        period = s.controller.period_s
         pending_latency: list[tuple[float, float]] = []  # (frame t, processing wall s)
         try:
             while clock.now() - t0 < self.duration_s:
-                # control ticks that fall before the next camera frame run first (time order)
-                next_frame = getattr(s.camera, "_next", None)
-                if next_frame is not None and next_control < next_frame:
-                    clock.wait_until(next_control)
-                    self._control_tick(pending_latency)
-                    next_control += period
+                # control steps that fall before the next camera frame run first (time order)
+                next_frame = getattr(s.camera, "next_frame_t", None)
+                due = schedule.next_due(clock.now(), next_frame)
+                if next_frame is not None and due < next_frame:
+                    clock.wait_until(due)
+                    self._control_step(pending_latency)
                     continue
                 frame = s.camera.read()
                 if frame is None:
@@ -132,32 +140,37 @@ class HeadlessRunner:
                 if s.targeter.mode is TargetMode.CUPS:
                     from dataclasses import replace
 
-                    result = replace(result, ball_left_px=s.ball_finder.find(frame.left))
+                    ball = self._ball if result.reused else s.ball_finder.find(frame.left)
+                    self._ball = ball
+                    result = replace(result, ball_left_px=ball)
                 self._goal = s.targeter.update(result)
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))
                 self._score_frame(frame, result)
-                if next_frame is None:  # real cameras: catch up on control ticks now
-                    while next_control <= clock.now():
-                        self._control_tick(pending_latency)
-                        next_control += period
+                schedule.goal_arrived(clock.now())  # a new perception result: step at once
+                # event-driven: this frame's step now; tick-driven (or real cameras): any ticks due
+                while schedule.due(clock.now()):
+                    self._control_step(pending_latency)
                 if clock.now() >= next_status:
                     next_status += 1.0
                     self.status(self._status_line(clock.now() - t0))
         finally:
             m.wall_s = time.perf_counter() - wall0
             m.sim_s = clock.now() - t0
+            m.event_steps, m.tick_steps = schedule.event_steps, schedule.tick_steps
             s.close()
         return m
 
-    def _control_tick(self, pending_latency) -> None:
+    def _control_step(self, pending_latency) -> None:
         s, m = self.s, self.metrics
+        now = s.clock.now()
+        self.schedule.ran(now)
         state = s.bridge.joint_state()
         q_now = state.q if state is not None else s.controller.last.q if s.controller.last else None
         if q_now is None:
             return
         w0 = time.perf_counter()
-        cmd = s.controller.step(self._goal, q_now, s.clock.now())
+        cmd = s.controller.step(self._goal, q_now, now)
         if cmd is None:
             return
         sent = s.bridge.send(cmd)
@@ -180,7 +193,10 @@ class HeadlessRunner:
     def _score_frame(self, frame, result) -> None:
         m = self.metrics
         m.frames += 1
-        m.perception_ms.append(result.timings_ms["total"])
+        if result.reused:  # a repeated frame: nothing was computed, nothing to time
+            m.frames_reused += 1
+        else:
+            m.perception_ms.append(result.timings_ms["total"])
         m.full_searches += int(result.full_frame_search)
         if frame.truth is None:
             return

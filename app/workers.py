@@ -29,6 +29,7 @@ from PySide6 import QtCore
 
 from core.devices.bridge import BridgeError
 from core.messages import TargetMode
+from core.motion.schedule import rate_cap_interval
 from core.session import DeskSession
 from core.settings import SgbmParams, StereoMatchParams
 from core.vision.calibration_health import CalibrationHealth
@@ -139,6 +140,9 @@ class PerceptionWorker(_LoopThread):
         self._error_reported = ""  # the camera problem last reported ("" = none)
         self._health_drifted = False
         self._health_sent_t = 0.0
+        self.on_result = None  # called (in this thread) after each result is published
+        self._ball = None  # cups: the ball found in the last computed frame
+        self._last_disparity = None  # ((computer, params, match), map) of the last computed frame
 
     def set_disparity_enabled(self, enabled: bool) -> None:
         if enabled:
@@ -266,20 +270,31 @@ class PerceptionWorker(_LoopThread):
         result = s.perception.process(frame)
         extra = {}
         if self._want_disparity.is_set():
-            t0 = time.perf_counter()
-            extra["disparity"] = self.disparity.compute(frame.left, frame.right)
-            extra["timings_ms"] = dict(result.timings_ms, disparity=(time.perf_counter() - t0) * 1e3)
+            key = (self.disparity, self.disparity.params, self.disparity.match)
+            if result.reused and self._last_disparity is not None and self._last_disparity[0] == key:
+                extra["disparity"] = self._last_disparity[1]  # the same images: the same map
+            else:
+                t0 = time.perf_counter()
+                extra["disparity"] = self.disparity.compute(frame.left, frame.right)
+                extra["timings_ms"] = dict(result.timings_ms, disparity=(time.perf_counter() - t0) * 1e3)
+                self._last_disparity = (key, extra["disparity"])
         if s.targeter.mode is TargetMode.CUPS:
-            extra["ball_left_px"] = s.ball_finder.find(frame.left)
+            if not result.reused:
+                self._ball = s.ball_finder.find(frame.left)
+            extra["ball_left_px"] = self._ball
         if extra:
             result = replace(result, **extra)
-        self._feed_health(result)
+        if not result.reused:
+            self._feed_health(result)
         self.results.put(result)
+        if self.on_result is not None:
+            self.on_result()
         self.sigResult.emit(result)
 
 
 class ControlWorker(_LoopThread):
-    """Targeting + IK + safety at a fixed 50 Hz; hands commands to the bridge worker."""
+    """Targeting + IK + safety, when the session's ControlSchedule says: at once for a new
+    perception result or user input, else on the 50 Hz tick; hands commands to the bridge worker."""
 
     sigCommand = QtCore.Signal(object, object)
 
@@ -287,19 +302,48 @@ class ControlWorker(_LoopThread):
         super().__init__("control", parent)
         self.session = session
         self.results, self.states, self.commands = results, states, commands
-        self._next = None
+        self.schedule = session.control_schedule()
+        self._bell = threading.Event()  # rung by a new perception result, a user input, stop()
+        self._result_version = 0
+        self._input = threading.Event()
+        session.targeter.listeners.append(self.user_input)
+
+    def user_input(self) -> None:
+        """The user changed the goal (any thread): step at once."""
+        self._input.set()
+        self._bell.set()
+
+    def new_result(self) -> None:
+        """Perception published a result (any thread): step at once."""
+        self._bell.set()
 
     def wake(self) -> None:
+        self._bell.set()
         self.session.clock.interrupt()
 
     def loop_once(self) -> None:
         s = self.session
+        sched = self.schedule
+        sched.min_interval_s = rate_cap_interval(s.bridge, sched.period_s)  # the bridge may be switched
         now = s.clock.now()
-        if self._next is None:
-            self._next = now
-        if not s.clock.wait_until(self._next) or not self.running:
+        _, version = self.results.wait_newer(self._result_version, 0.0)
+        if version != self._result_version:
+            self._result_version = version
+            sched.goal_arrived(now)
+        if self._input.is_set():
+            self._input.clear()
+            sched.goal_arrived(now)
+        due = sched.next_due(now, getattr(s.camera, "next_frame_t", None))
+        if due > now:
+            if s.clock.simulated:
+                s.clock.wait_until(due)
+            else:
+                self._bell.wait(due - now)
+                self._bell.clear()
+            return  # look again: a new goal may have come
+        if not self.running:
             return
-        self._next = max(self._next + s.controller.period_s, s.clock.now() - s.controller.period_s)
+        sched.ran(now)
         result = self.results.peek()
         goal = s.targeter.update(result)
         state = self.states.peek()
@@ -309,7 +353,7 @@ class ControlWorker(_LoopThread):
             q_now = s.controller.last.q
         else:
             q_now = s.profile.q_home
-        cmd = s.controller.step(goal, q_now, s.clock.now())
+        cmd = s.controller.step(goal, q_now, now)
         if cmd is not None:
             self.commands.put(cmd)
             self.sigCommand.emit(cmd, goal)
@@ -440,6 +484,7 @@ class WorkerSet:
         self.commands: Latest = Latest()
         self.perception = PerceptionWorker(session, self.results, parent)
         self.control = ControlWorker(session, self.results, self.states, self.commands, parent)
+        self.perception.on_result = self.control.new_result  # a new result wakes the control step
         self.bridge = BridgeWorker(session, self.commands, self.states, parent)
         self.started = False
 

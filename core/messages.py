@@ -53,6 +53,9 @@ class StereoFrame:
     right: np.ndarray
     skew_s: float = 0.0  # |t_left - t_right| for real cameras
     truth: Optional[GroundTruth] = None  # simulated sources only
+    # the source knows these images equal the previous frame's (it re-delivers the very same
+    # arrays): perception may reuse its last answer and views need no redraw
+    repeated: bool = False
 
 
 @dataclass(frozen=True)
@@ -82,6 +85,7 @@ class PerceptionResult:
     frame: Optional[StereoFrame] = None  # the frame, for display
     disparity: Optional[np.ndarray] = None  # float32 px, rectified left, when requested
     ball_left_px: Optional[tuple[float, float]] = None  # cups game: red ball in the left image
+    reused: bool = False  # the frame was ``repeated``: the previous answer, re-stamped, nothing computed
 
     def marker(self, marker_id: int) -> Optional[MarkerObservation]:
         for m in self.markers:

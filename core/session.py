@@ -17,6 +17,7 @@ from core.devices.bridge import MotorBridge, parse_bridge_url
 from core.kinematics import build_kinematics, load_profile
 from core.messages import TargetMode
 from core.motion.control import ArmController
+from core.motion.schedule import schedule_for
 from core.motion.targeting import BallFinder, Targeter
 from core.paths import user_dir
 from core.vision.calibration import (
@@ -43,6 +44,7 @@ class SessionOptions:
     simulated_clock: bool = False  # headless --fast: run on a simulated clock
     marker_ids: tuple[int, ...] = (23, 50)
     calibration: Optional[str] = None  # path; default: the last saved one for real cameras
+    event_driven: bool = True  # control step at once on a new goal (False: only on the 50 Hz tick)
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
@@ -94,6 +96,10 @@ class DeskSession:
         bridge = open_bridge(options.bridge, profile, clock=clock)
         return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
                    controller, bridge, banners)
+
+    def control_schedule(self):
+        """A fresh ControlSchedule for this session's controller and bridge (its rate cap)."""
+        return schedule_for(self.controller.period_s, self.bridge, self.options.event_driven)
 
     @property
     def is_simulated_camera(self) -> bool:

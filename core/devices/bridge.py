@@ -57,6 +57,9 @@ class MotorBridge(ABC):
 
     has_feedback = False
     _estopped = False  # class default, so subclasses that skip __init__ still work
+    # command rate cap (Hz) the control schedule respects: v1's 6 bytes take 6.25 ms at 9600
+    # baud, so 100 Hz keeps the line at most 63 % busy; v2 sets its own (MAX_COMMAND_HZ)
+    max_command_hz = 100.0
 
     def __init__(self, url: str, profile, clock=None):
         self.url = url

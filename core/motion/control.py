@@ -1,7 +1,8 @@
 """The control step: Goal -> inverse kinematics -> safety clamps -> JointCommand.
 
-Runs at a fixed rate (50 Hz, the servo PWM frame) in the kinematics/control worker and in the
-headless runner. A lost marker holds the last command; an unreachable goal sends the arm to the
+Runs in the kinematics/control worker and in the headless runner when ``ControlSchedule``
+(``core.motion.schedule``) says so: at once for a new goal, else on the 50 Hz tick (the servo
+PWM frame). A lost marker holds the last command; an unreachable goal sends the arm to the
 nearest reachable point and says by how much the goal is out of reach.
 """
 from __future__ import annotations
@@ -59,7 +60,7 @@ class ArmController:
             ik = self.kinematics.ik(goal.base_p_target, q_ref)
         self.last_ik = ik
         q_safe, changed = clamp_to_limits(ik.q, self.profile)
-        q_limited = limit_step(q_ref, q_safe, self.max_step_rad)
+        q_limited = limit_step(q_ref, q_safe, self.step_allowance(t))
         q_final, changed_again = clamp_to_limits(q_limited, self.profile)
         cmd = JointCommand(
             seq=self._seq.next(), t=t, q=tuple(q_final), source_t=goal.source_t,
@@ -68,6 +69,18 @@ class ArmController:
         )
         self.last = cmd
         return cmd
+
+    def step_allowance(self, t: float) -> tuple[float, ...]:
+        """How far each joint may move in a step at ``t``: its speed limit × the time since the
+        previous step, at most one tick period (a step that comes sooner than the tick — a new
+        goal — moves less, so the speed limits hold however often the step runs)."""
+        if self.last is None:
+            return self.max_step_rad
+        dt = t - self.last.t
+        if not dt < self.period_s:  # also NaN: never more than one tick's step
+            return self.max_step_rad
+        scale = max(dt, 0.0) / self.period_s
+        return tuple(s * scale for s in self.max_step_rad)
 
     def estop(self) -> None:
         self.armed = False

@@ -8,9 +8,10 @@ above it, so the arm shows the object without covering its marker from the camer
 from __future__ import annotations
 
 import math
+import functools
 import threading
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, Optional
 
 import cv2
 import numpy as np
@@ -63,10 +64,25 @@ class BallFinder:
         return ((cx + 0.5) / self.scale - 0.5, (cy + 0.5) / self.scale - 0.5)
 
 
+def _user_input(setter):
+    """A Targeter setter: after it, tell the listeners (the control loop steps at once)."""
+
+    @functools.wraps(setter)
+    def wrapped(self, *args, **kwargs):
+        out = setter(self, *args, **kwargs)
+        for listener in tuple(self.listeners):
+            listener()
+        return out
+
+    return wrapped
+
+
 class Targeter:
     """Keeps the targeting state the GUI edits and makes a Goal from each perception result.
 
     Thread-safe: setters may be called from the GUI thread while ``update`` runs in a worker.
+    ``listeners`` (callables without arguments) are called after every setter, in the caller's
+    thread: the control worker uses it to run its step at once for a user's new goal.
     """
 
     def __init__(self, clock, mode: TargetMode = TargetMode.MANUAL,
@@ -88,16 +104,20 @@ class Targeter:
         self.cup_ids = tuple(cup_ids)
         self.ball_cup_id: Optional[int] = None  # the cup believed to hide the ball
         self._seq = SequenceCounter()
+        self.listeners: list[Callable[[], None]] = []
 
     # --- setters (GUI thread) ---------------------------------------------------------------
+    @_user_input
     def set_mode(self, mode) -> None:
         with self._lock:
             self.mode = TargetMode(mode)
 
+    @_user_input
     def set_manual_target(self, base_p) -> None:
         with self._lock:
             self.manual_target = as_point(base_p)
 
+    @_user_input
     def set_manual_pose(self, base_p, rpy=None, grip_m: Optional[float] = None) -> None:
         """Manual target with a tool orientation (roll, pitch, yaw in rad) and a grip (m)."""
         with self._lock:
@@ -105,14 +125,17 @@ class Targeter:
             self.manual_rpy = None if rpy is None else as_point(rpy)
             self.manual_grip_m = None if grip_m is None else float(grip_m)
 
+    @_user_input
     def set_follow_id(self, marker_id: int) -> None:
         with self._lock:
             self.follow_id = int(marker_id)
 
+    @_user_input
     def set_lissajous(self, params: LissajousParams) -> None:
         with self._lock:
             self.lissajous = params
 
+    @_user_input
     def set_lissajous_running(self, running: bool) -> None:
         with self._lock:
             now = self.clock.now()

@@ -1,7 +1,16 @@
-"""The simulated desk as a stereo camera source: the rig's two views rendered on a clock."""
+"""The simulated desk as a stereo camera source: the rig's two views rendered on a clock.
+
+On a wall clock a sensor thread renders each frame *ahead* of its time, so a frame is ready at
+its timestamp like a webcam's grabbed frame: the render (6–8 ms a pair here) is not on the
+pipeline's critical path and not in its latency. On a simulated clock (``--fast``, tests) frames
+are rendered in ``read``. When nothing in the scene moved (scene state, arm, camera settings)
+the previous images are delivered again, flagged ``repeated``, and nothing is rendered.
+"""
 from __future__ import annotations
 
+import collections
 import threading
+import time
 from dataclasses import replace
 from typing import Optional
 
@@ -13,6 +22,8 @@ from core.sim.desk import SimDesk
 from core.sim.rig import SimRig
 from core.vision.calibration import StereoCalibration
 from core.vision.cameras import CameraControl, ClockPacedSource, check_side
+
+RENDER_MARGIN_S = 0.002  # a render starts this much earlier than the slow end of recent renders
 
 _SIM_CONTROLS = (  # name, label, min, max, step (CameraSettings fields)
     ("exposure", "Exposure (EV)", -4.0, 4.0, 0.1),
@@ -46,6 +57,18 @@ class SimStereoCamera(ClockPacedSource):
         self._next = 0.0
         self._arm_points: Optional[np.ndarray] = None
         self._lock = threading.Lock()
+        self.repeat_unchanged = True  # re-deliver the last images when nothing in the scene moved
+        self._last_key = None  # what the last render depended on (scene, arm, camera settings)
+        self._last_render = None  # (left, right, truth) of that render
+        self.frames_rendered = 0
+        self.frames_repeated = 0
+        self.render_ahead = True  # wall clock: a sensor thread renders each frame before its time
+        self._render_s: collections.deque = collections.deque(maxlen=60)  # recent render durations
+        self._sensor: Optional[threading.Thread] = None
+        self._ready = threading.Condition()
+        self._published: Optional[StereoFrame] = None  # the newest frame of the sensor thread
+        self._returned_seq = 0
+        self._interrupted = False
 
     @property
     def name(self) -> str:
@@ -54,12 +77,6 @@ class SimStereoCamera(ClockPacedSource):
     @property
     def pair_id(self) -> str:
         return "sim"
-
-    def connect(self) -> None:
-        self._connected = True
-        self._t0 = self.clock.now()
-        self._next = self._t0
-
 
     def set_settings(self, settings: CameraSettings) -> None:
         super().set_settings(settings)
@@ -85,18 +102,102 @@ class SimStereoCamera(ClockPacedSource):
         with self._lock:
             self._arm_points = None if points is None else np.array(points, dtype=float)
 
+    def connect(self) -> None:
+        self.disconnect()  # a second connect restarts the sensor thread
+        self._connected = True
+        self._t0 = self.clock.now()
+        self._next = self._t0
+        self._last_key = self._last_render = None
+        if not self.clock.simulated and self.render_ahead:
+            self._sensor = threading.Thread(target=self._sensor_loop, name="sim-camera", daemon=True)
+            self._sensor.start()
+
+    def disconnect(self) -> None:
+        super().disconnect()
+        with self._ready:
+            self._ready.notify_all()
+        sensor, self._sensor = self._sensor, None
+        if sensor is not None and sensor is not threading.current_thread():
+            sensor.join(timeout=5.0)
+
+    def interrupt(self) -> None:
+        super().interrupt()
+        with self._ready:
+            self._interrupted = True
+            self._ready.notify_all()
+
+    def _frame_at(self, t: float) -> StereoFrame:
+        """The frame of time ``t``: rendered, or the last one again when nothing moved."""
+        with self._lock:
+            arm = self._arm_points
+        key = self.desk.scene_key(t - self._t0, arm) if self.repeat_unchanged else None
+        if key is not None and key == self._last_key and self._last_render is not None:
+            # a still scene: the same images (and their noise) again, flagged so that perception
+            # reuses its answer and the views skip the redraw
+            left, right, truth = self._last_render
+            self.frames_repeated += 1
+            return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth, repeated=True)
+        w0 = time.perf_counter()
+        left, right, truth = self.desk.render(t - self._t0, arm)
+        self._render_s.append(time.perf_counter() - w0)
+        left.flags.writeable = right.flags.writeable = False  # they may be delivered again
+        self._last_key, self._last_render = key, (left, right, truth)
+        self.frames_rendered += 1
+        return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth)
+
+    def render_lead_s(self) -> float:
+        """How long before a frame's time its render starts: the slow end of recent renders
+        plus a margin, at most 80 % of a frame period."""
+        recent = sorted(self._render_s)
+        slow = recent[int(0.9 * (len(recent) - 1))] if recent else 0.010
+        return min(slow + RENDER_MARGIN_S, 0.8 / self.fps)
+
+    def _sensor_loop(self) -> None:
+        """Render each frame ahead, publish it at its time (wall clock only)."""
+        period = 1.0 / self.fps
+        t_frame = self._t0
+        while self._connected:
+            now = time.monotonic()
+            if t_frame < now - period:  # after a stall skip ahead instead of bursting
+                t_frame = now
+            start = t_frame - self.render_lead_s()
+            if start > now and self._stop_wait(start - now):
+                return
+            frame = self._frame_at(t_frame)
+            now = time.monotonic()
+            if t_frame > now and self._stop_wait(t_frame - now):
+                return
+            with self._ready:
+                self._published = frame
+                self._next = t_frame + period
+                self._ready.notify_all()
+            t_frame += period
+
+    def _stop_wait(self, seconds: float) -> bool:
+        """Sleep ``seconds`` unless disconnected first (then True)."""
+        with self._ready:
+            self._ready.wait_for(lambda: not self._connected, timeout=seconds)
+            return not self._connected
+
     def read(self) -> Optional[StereoFrame]:
         if not self._connected:
             return None
+        if self._sensor is not None:
+            with self._ready:
+                self._interrupted = False
+                self._ready.wait_for(lambda: (not self._connected or self._interrupted or (
+                    self._published is not None and self._published.seq > self._returned_seq)), timeout=1.0)
+                frame = self._published
+                if not self._connected or frame is None or frame.seq <= self._returned_seq:
+                    return None
+                self._returned_seq = frame.seq
+                return frame
         if not self.clock.wait_until(self._next) or not self._connected:
             return None
         t = self.clock.now()
         # keep the frame grid; after a stall skip ahead instead of bursting
         self._next = max(self._next + 1.0 / self.fps, t)
-        with self._lock:
-            arm = self._arm_points
-        left, right, truth = self.desk.render(t - self._t0, arm)
-        return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth)
+        return self._frame_at(t)
 
     def calibration(self) -> StereoCalibration:
         return self.rig.calibration()

@@ -795,6 +795,12 @@ class SimDesk:
             return None
         return arm
 
+    def scene_key(self, t: float, arm_points: Optional[np.ndarray] = None) -> tuple:
+        """Everything a render at ``t`` depends on but the sensor noise: equal keys give the
+        same picture (the scene state, the arm's points, the camera settings)."""
+        arm = self._check_arm(arm_points)
+        return (self.scene(float(t)), None if arm is None else arm.tobytes(), self._settings)
+
     def render(self, t: float, arm_points: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray, GroundTruth]:
         """Left and right BGR uint8 images at scenario time t (s), and the ground truth.
 

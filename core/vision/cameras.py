@@ -237,6 +237,12 @@ class ClockPacedSource(CameraSource):
         super().__init__()
         self.clock = clock or WallClock()
         self._connected = False
+        self._next = 0.0  # when the next frame is due, on ``clock``
+
+    @property
+    def next_frame_t(self) -> float:
+        """When the next frame is due (the headless runner runs control steps due before it)."""
+        return self._next
 
     def disconnect(self) -> None:
         self._connected = False
