@@ -73,3 +73,36 @@ def test_switching_to_an_unfit_bridge_keeps_the_working_one(qtbot, session):
     assert worker.isFinished()
     assert session.bridge is before and before.is_connected
     assert "no reply" in before.message and "still on sim://" in before.message
+
+
+class CommandLog(QtCore.QObject):
+    def __init__(self):
+        super().__init__()
+        self.items = []
+
+    @QtCore.Slot(object, object)
+    def add(self, command, goal):
+        self.items.append((command, goal))
+
+
+def test_a_user_input_makes_the_control_worker_step_at_once(qtbot, session):
+    """A new manual target rings the control worker; the step that follows is an early one."""
+    from app.workers import ControlWorker
+    from core.messages import TargetMode
+
+    session.targeter.set_mode(TargetMode.MANUAL)
+    worker = ControlWorker(session, Latest(), Latest(), Latest())
+    worker.schedule.period_s = 3600.0  # no tick in this test: only a goal can make a step
+    log = CommandLog()
+    worker.sigCommand.connect(log.add)
+    worker.start()
+    try:
+        qtbot.waitUntil(lambda: len(log.items) == 1, timeout=5000)  # the first step runs at once
+        session.targeter.set_manual_target((0.05, 0.18, 0.06))
+        qtbot.waitUntil(lambda: len(log.items) == 2, timeout=5000)
+    finally:
+        worker.stop()
+    command, goal = log.items[-1]
+    assert goal.base_p_target == (0.05, 0.18, 0.06)
+    assert worker.schedule.event_steps == 1
+    assert worker.isFinished()

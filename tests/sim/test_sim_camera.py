@@ -1,0 +1,119 @@
+"""The simulated camera: still scenes re-deliver their images flagged 'repeated', moving ones are
+rendered; on a wall clock a sensor thread renders each frame before its time."""
+import threading
+import time
+
+import numpy as np
+
+from core.clock import SimClock, WallClock
+from core.kinematics import build_kinematics, load_profile
+from core.settings import CameraSettings
+from core.sim.camera import SimStereoCamera
+from core.vision.perception import StereoMarkerPerception
+
+PROFILE = load_profile("desk_rrr")
+KIN = build_kinematics(PROFILE)
+
+
+def sim_camera(scenario="static", clock=None):
+    cam = SimStereoCamera(scenario=scenario, clock=clock or SimClock())
+    cam.connect()
+    cam.set_arm_points(KIN.chain_points(PROFILE.q_home))
+    return cam
+
+
+def test_a_still_scene_repeats_its_images_and_says_so():
+    cam = sim_camera("static")
+    first, second = cam.read(), cam.read()
+    assert not first.repeated and second.repeated
+    assert second.left is first.left and second.right is first.right and second.seq > first.seq
+    assert second.t > first.t
+    assert not first.left.flags.writeable  # shared between frames: nobody may draw into them
+    assert (cam.frames_rendered, cam.frames_repeated) == (1, 1)
+
+
+def test_the_arm_moving_or_a_new_camera_setting_renders_again():
+    cam = sim_camera("static")
+    cam.read()
+    cam.set_arm_points(KIN.chain_points((0.2, 0.9, -1.2)))
+    moved = cam.read()
+    assert not moved.repeated
+    cam.set_settings(CameraSettings(exposure=1.0))
+    brighter = cam.read()
+    assert not brighter.repeated and brighter.left.mean() > moved.left.mean()
+    assert cam.read().repeated
+
+
+def test_a_moving_scene_is_never_repeated():
+    cam = sim_camera("wander")
+    frames = [cam.read() for _ in range(10)]
+    assert not any(f.repeated for f in frames)
+
+
+def test_repeating_can_be_switched_off():
+    cam = sim_camera("static")
+    cam.repeat_unchanged = False
+    a, b = cam.read(), cam.read()
+    assert not b.repeated and b.left is not a.left
+
+
+def test_perception_reuses_its_answer_for_a_repeated_frame_only():
+    cam = sim_camera("static")
+    p = StereoMarkerPerception(cam.calibration(), cam.base_T_camera())
+    first = p.process(cam.read())
+    again = p.process(cam.read())
+    assert again.reused and not first.reused
+    assert again.markers == first.markers and again.seq > first.seq and again.frame is not first.frame
+    # equal pixels in new arrays are not the source's promise: computed again
+    copy = again.frame.__class__(seq=again.seq + 1, t=again.t + 0.03, left=first.frame.left.copy(),
+                                 right=first.frame.right.copy())
+    computed = p.process(copy)
+    assert not computed.reused
+    assert np.allclose([m.base_p_centre for m in computed.markers], [m.base_p_centre for m in first.markers], atol=1e-5)
+
+
+def test_on_a_wall_clock_frames_are_rendered_ahead_and_never_delivered_before_their_time():
+    cam = SimStereoCamera(scenario="wander", fps=60.0, clock=WallClock())
+    cam.connect()
+    try:
+        frames = []
+        for _ in range(8):
+            f = cam.read()
+            delivered = time.monotonic()
+            assert f is not None and f.t <= delivered
+            frames.append(f)
+        assert [f.seq for f in frames] == sorted({f.seq for f in frames})
+        assert all(b.t > a.t for a, b in zip(frames, frames[1:]))
+        assert cam.next_frame_t > frames[-1].t
+        assert cam.frames_rendered >= 8
+    finally:
+        cam.disconnect()
+    assert cam.read() is None
+
+
+def test_disconnect_and_interrupt_wake_a_waiting_read():
+    cam = SimStereoCamera(scenario="static", fps=1.0, clock=WallClock())
+    cam.connect()
+    cam.read()  # the first frame; the next one is a second away
+    got = []
+    reader = threading.Thread(target=lambda: got.append(cam.read()))
+    reader.start()
+    cam.interrupt()
+    reader.join(timeout=5.0)
+    assert not reader.is_alive() and got == [None]
+    cam.disconnect()
+    assert cam._sensor is None and not any(t.name == "sim-camera" and t.is_alive() for t in threading.enumerate())
+
+
+def test_the_crop_detector_keeps_the_full_frames_minimum_marker_size_in_pixels():
+    cam = sim_camera("static")
+    p = StereoMarkerPerception(cam.calibration(), cam.base_T_camera())
+    full = p.process(cam.read())
+    base_rate = p.detector.getDetectorParameters().minMarkerPerimeterRate
+    crop = p._crop_detector(640, 100)
+    assert np.isclose(crop.getDetectorParameters().minMarkerPerimeterRate, base_rate * 6.4)
+    cam.repeat_unchanged = False
+    tracked = p.process(cam.read())  # crops around both markers
+    assert not tracked.full_frame_search
+    for a, b in zip(full.markers, tracked.markers):
+        assert b.found and np.allclose(a.base_p_centre, b.base_p_centre, atol=2e-3)
