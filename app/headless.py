@@ -18,7 +18,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from core.messages import TargetMode
-from core.session import DeskSession, SessionOptions
+from core.session import DeskSession, SessionOptions, freeze_startup_objects
 
 
 def percentile(values, q: float) -> Optional[float]:
@@ -167,11 +167,12 @@ class HeadlessRunner:
         self.schedule.ran(now)
         state = s.bridge.joint_state()
         q_now = state.q if state is not None else s.controller.last.q if s.controller.last else None
-        if q_now is None:
-            return
         w0 = time.perf_counter()
-        cmd = s.controller.step(self._goal, q_now, now)
+        cmd = None if q_now is None else s.controller.step(self._goal, q_now, now)
         if cmd is None:
+            # nothing to write (no goal yet, e-stopped): these frames led to no bytes, they have
+            # no frame -> bytes latency (counted before, they showed the wait for the first goal)
+            pending_latency.clear()
             return
         sent = s.bridge.send(cmd)
         ctrl_wall = time.perf_counter() - w0
@@ -254,6 +255,7 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
         file=out,
     )
     runner = HeadlessRunner(session, duration_s, status=lambda line: print(line, file=out, flush=True))
+    freeze_startup_objects()
     metrics = runner.run()
     summary = metrics.summary()
     if as_json:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.session import DeskSession, SessionOptions
+from core.session import DeskSession, SessionOptions, freeze_startup_objects
 
 SCENARIOS = ("cups", "static", "wander")
 ISOLATED = "perception, ours (ROI + point rectify)"  # bench_perception's row
@@ -21,7 +21,9 @@ def headless_run(scenario: str, event_driven: bool, duration_s: float):
     from app.headless import HeadlessRunner
 
     session = DeskSession.create(SessionOptions(camera="sim", scenario=scenario, event_driven=event_driven))
-    return HeadlessRunner(session, duration_s).run()
+    runner = HeadlessRunner(session, duration_s)
+    freeze_startup_objects()  # as `deskarm --headless` does
+    return runner.run()
 
 
 def _p95(values) -> float:

@@ -23,7 +23,7 @@ from core.sim.rig import SimRig
 from core.vision.calibration import StereoCalibration
 from core.vision.cameras import CameraControl, ClockPacedSource, check_side
 
-RENDER_MARGIN_S = 0.002  # a render starts this much earlier than the slow end of recent renders
+RENDER_MARGIN_S = 0.003  # a render starts this much earlier than the slowest recent render needs
 
 _SIM_CONTROLS = (  # name, label, min, max, step (CameraSettings fields)
     ("exposure", "Exposure (EV)", -4.0, 4.0, 0.1),
@@ -146,10 +146,9 @@ class SimStereoCamera(ClockPacedSource):
         return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth)
 
     def render_lead_s(self) -> float:
-        """How long before a frame's time its render starts: the slow end of recent renders
+        """How long before a frame's time its render starts: the slowest of the last 60 renders
         plus a margin, at most 80 % of a frame period."""
-        recent = sorted(self._render_s)
-        slow = recent[int(0.9 * (len(recent) - 1))] if recent else 0.010
+        slow = max(self._render_s) if self._render_s else 0.010
         return min(slow + RENDER_MARGIN_S, 0.8 / self.fps)
 
     def _sensor_loop(self) -> None:
