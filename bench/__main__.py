@@ -39,6 +39,9 @@ def collect(quick: bool = False) -> list[dict]:
     from bench import bench_pipeline
 
     rows += bench_pipeline.rows(quick)
+    from bench import bench_window
+
+    rows += bench_window.rows(quick)
     return rows
 
 

@@ -45,6 +45,8 @@ LEVEL_ALIASES = {"near": "warn", "at": "limit"}  # JointReadout.levels() spells 
 LEVEL_COLOURS = {"ok": MEASURED_COLOUR, "warn": (255, 140, 0), "limit": (235, 30, 30)}
 LEVEL_DOT_PX = {"ok": 10, "warn": 17, "limit": 20}  # warn/limit dots also get a white ring
 
+SAME_POINT_TOL_M = 1e-6  # a point that moved less has not moved: the plots are in centimetres
+
 VIEW_MARGIN_FRACTION = 0.08  # configure_for: room around the workspace …
 VIEW_MARGIN_M = 0.02  # … plus this much
 MIN_VIEW_HALF_WIDTH_M = 0.10
@@ -71,6 +73,37 @@ def arm_azimuth(commanded: Optional[np.ndarray], measured: Optional[np.ndarray],
             return math.atan2(tool[1], tool[0])
         return previous
     return previous
+
+
+def same_points(a: Optional[Sequence], b: Optional[Sequence], tol: float = SAME_POINT_TOL_M) -> bool:
+    """True when two point sets (arrays, sequences or None) are equal within ``tol`` (m).
+
+    Same shape and every coordinate within ``tol``; NaN equals NaN (the gaps between chains);
+    None equals only None. The twins use it to skip redrawing what did not move.
+    """
+    if a is None or b is None:
+        return a is None and b is None
+    if a is b:
+        return True
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape:
+        return False
+    d = np.abs(a - b)  # not np.allclose: 4x slower on these few points, at up to 30 calls a frame
+    if (d <= tol).all():
+        return True
+    nan = np.isnan(a)
+    return bool(nan.any() and np.array_equal(nan, np.isnan(b)) and (d[~nan] <= tol).all())
+
+
+def same_chains(a: Sequence[np.ndarray], b: Sequence[np.ndarray], tol: float = SAME_POINT_TOL_M) -> bool:
+    """:func:`same_points` for two lists of chains."""
+    return len(a) == len(b) and all(same_points(x, y, tol) for x, y in zip(a, b))
+
+
+def same_marker_points(a: Mapping[int, np.ndarray], b: Mapping[int, np.ndarray],
+                       tol: float = SAME_POINT_TOL_M) -> bool:
+    """:func:`same_points` for two {marker id: (3,) m} maps (same ids, same places)."""
+    return a.keys() == b.keys() and all(same_points(a[k], b[k], tol) for k in a)
 
 
 def side_view_coords(points_m: np.ndarray, azimuth_rad: float) -> np.ndarray:
@@ -416,7 +449,8 @@ class _ViewItems:
         for label, marker_id, (x, y) in zip(self.marker_labels, ids, xy_cm):
             label.setText(str(marker_id))
             label.setPos(float(x), float(y))
-            label.setVisible(True)
+            if not label.isVisible():  # TextItem.setVisible(True) re-computes its transform
+                label.setVisible(True)
         for label in self.marker_labels[len(ids):]:
             label.setVisible(False)
 
@@ -429,9 +463,23 @@ def _xy(points: Optional[np.ndarray], cols: slice = slice(0, 2)) -> tuple[np.nda
 
 
 def _set_points(item: pg.ScatterPlotItem, x: np.ndarray, y: np.ndarray, **kwargs) -> None:
-    """setData, hiding the item when empty (an empty scatter still costs ~0.15 ms a paint)."""
+    """setData, hiding the item when empty (an empty scatter still costs ~0.15 ms a paint).
+
+    Emptying an item that is already hidden (so empty) does nothing: the aimed point and the
+    like are usually absent, every frame.
+    """
+    if len(x) == 0 and not item.isVisible():
+        return
     item.setData(x, y, **kwargs)
     item.setVisible(len(x) > 0)
+
+
+def _set_curve(item: pg.PlotDataItem, x: np.ndarray, y: np.ndarray) -> None:
+    """setData, skipped when emptying a curve that is already empty (preview, aim line)."""
+    if len(x) == 0 and getattr(item, "_deskarm_empty", False):
+        return
+    item.setData(x, y)
+    item._deskarm_empty = len(x) == 0
 
 
 def _finite_rows(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -462,6 +510,10 @@ class TwinBase:
 
     _levels: Optional[list[str]]
     _measured_label: str
+    # True: every set_* call redraws, even when nothing moved (the window's redraw-all mode,
+    # the baseline of bench/bench_window.py); False: a call with what is drawn is skipped
+    redraw_unchanged = False
+    _coloured_reachable: Optional[bool] = None  # the reachability the target is coloured for
 
     def set_joint_levels(self, levels: Optional[Sequence[str]]) -> None:
         """Colour the measured arm's joint dots: per joint "ok", "warn" (orange) or "limit"
@@ -482,6 +534,8 @@ class TwinBase:
 
     def set_measured_label(self, text: str) -> None:
         """Rename the measured chain in the legend, e.g. "commanded (no feedback)"."""
+        if text == self._measured_label and not self.redraw_unchanged:
+            return
         self._measured_label = text
         self._update_legend()
 
@@ -490,14 +544,23 @@ class TwinBase:
 
     def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
         """Draw the target point (m), green when reachable, red when not."""
-        self._target = None if p is None else np.asarray(p, dtype=float).reshape(3)
-        self._reachable = bool(reachable)
-        self._colour_target(REACHABLE_COLOUR if reachable else UNREACHABLE_COLOUR)
+        target = None if p is None else np.asarray(p, dtype=float).reshape(3)
+        reachable = bool(reachable)
+        recolour = reachable != self._coloured_reachable or self.redraw_unchanged
+        if not recolour and same_points(target, self._target):
+            return  # the usual frame while the arm holds a target
+        self._target, self._reachable = target, reachable
+        if recolour:
+            self._coloured_reachable = reachable
+            self._colour_target(REACHABLE_COLOUR if reachable else UNREACHABLE_COLOUR)
         self._draw_target()
 
     def set_aimed_point(self, p: Optional[Sequence[float]]) -> None:
         """Draw the point actually aimed at (nearest reachable), linked to the target."""
-        self._aimed = None if p is None else np.asarray(p, dtype=float).reshape(3)
+        aimed = None if p is None else np.asarray(p, dtype=float).reshape(3)
+        if same_points(aimed, self._aimed) and not self.redraw_unchanged:
+            return
+        self._aimed = aimed
         self._draw_target()
 
     def _colour_target(self, colour: str) -> None:  # pragma: no cover - every twin overrides
@@ -621,9 +684,16 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._redraw_side()
 
     def set_arm(self, commanded: Optional[np.ndarray], measured: Optional[np.ndarray]) -> None:
-        """Draw the commanded (dashed) and measured (thick) chains, (N,3) base→tool, or None."""
-        self._commanded = None if commanded is None else np.asarray(commanded, dtype=float)
-        self._measured = None if measured is None else np.asarray(measured, dtype=float)
+        """Draw the commanded (dashed) and measured (thick) chains, (N,3) base→tool, or None.
+
+        Nothing is redrawn when both chains are where they were drawn (:func:`same_points`).
+        """
+        commanded = None if commanded is None else np.asarray(commanded, dtype=float)
+        measured = None if measured is None else np.asarray(measured, dtype=float)
+        if (not self.redraw_unchanged and same_points(commanded, self._commanded)
+                and same_points(measured, self._measured)):
+            return  # the arm holds still
+        self._commanded, self._measured = commanded, measured
         if self._fixed_azimuth is None:
             azimuth = arm_azimuth(self._commanded, self._measured, self._azimuth)
         else:
@@ -645,8 +715,10 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         For the delta: ``DeltaKinematics.arm_segments(q)`` (3 arms × shoulder, elbow,
         effector joint, effector centre), drawn in the measured arm's colour.
         """
-        self._extra_chains = ([] if segments is None else
-                              [np.asarray(s, dtype=float).reshape(-1, 3) for s in segments])
+        chains = [] if segments is None else [np.asarray(s, dtype=float).reshape(-1, 3) for s in segments]
+        if same_chains(chains, self._extra_chains) and not self.redraw_unchanged:
+            return
+        self._extra_chains = chains
         self._extra = polylines_with_gaps(self._extra_chains)
         self._draw_extra(self._top, _xy)
         self._draw_extra(self._side, self._side_xy)
@@ -678,12 +750,15 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
     def set_preview(self, points: Optional[np.ndarray]) -> None:
         """Draw a faint preview curve (P,3) in both views (e.g. the Lissajous path)."""
         self._preview = None if points is None else np.asarray(points, dtype=float).reshape(-1, 3)
-        self._top.preview.setData(*_xy(self._preview))
-        self._side.preview.setData(*self._side_xy(self._preview))
+        _set_curve(self._top.preview, *_xy(self._preview))
+        _set_curve(self._side.preview, *self._side_xy(self._preview))
 
     def set_markers(self, points: Mapping[int, np.ndarray]) -> None:
         """Draw marker positions {id: (3,) m} as labelled dots in both views."""
-        self._markers = {int(k): np.asarray(v, dtype=float).reshape(3) for k, v in points.items()}
+        markers = {int(k): np.asarray(v, dtype=float).reshape(3) for k, v in points.items()}
+        if same_marker_points(markers, self._markers) and not self.redraw_unchanged:
+            return
+        self._markers = markers
         ids = sorted(self._markers)
         xyz = np.array([self._markers[i] for i in ids]).reshape(-1, 3)
         top = xyz[:, :2] * M_TO_CM
@@ -724,7 +799,7 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
 
     def _redraw_side_extras(self) -> None:
         """Re-project what depends on the azimuth (target, preview, markers, extra chains)."""
-        self._side.preview.setData(*self._side_xy(self._preview))
+        _set_curve(self._side.preview, *self._side_xy(self._preview))
         self._draw_extra(self._side, self._side_xy)
         self._draw_target()
         self._draw_side_markers()
@@ -765,9 +840,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
             aimed = None if self._aimed is None else self._aimed[None, :]
             _set_points(view.aimed, *project(aimed))
             if target is not None and aimed is not None:
-                view.aim_line.setData(*project(np.vstack([target, aimed])))
+                _set_curve(view.aim_line, *project(np.vstack([target, aimed])))
             else:
-                view.aim_line.setData([], [])
+                _set_curve(view.aim_line, np.empty(0), np.empty(0))
 
     def sizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
         """Modest, so a layout shares space by stretch instead of starving its neighbours."""

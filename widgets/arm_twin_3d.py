@@ -38,6 +38,9 @@ from widgets.arm_twin import (
     joint_dot_positions,
     make_legend_label,
     polylines_with_gaps,
+    same_chains,
+    same_marker_points,
+    same_points,
     side_azimuth_for,
     structure_segments,
     view_extent,
@@ -330,8 +333,12 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
 
     def set_arm(self, commanded: Optional[np.ndarray], measured: Optional[np.ndarray]) -> None:
         """Draw the commanded (thin, translucent) and measured (thick) chains, (N,3) m, or None."""
-        self._commanded = None if commanded is None else np.asarray(commanded, dtype=float)
-        self._measured = None if measured is None else np.asarray(measured, dtype=float)
+        commanded = None if commanded is None else np.asarray(commanded, dtype=float)
+        measured = None if measured is None else np.asarray(measured, dtype=float)
+        if (not self.redraw_unchanged and same_points(commanded, self._commanded)
+                and same_points(measured, self._measured)):
+            return  # the arm holds still
+        self._commanded, self._measured = commanded, measured
         start = self._chain_start
         for chain, item in ((self._commanded, self.commanded), (self._measured, self.measured)):
             drawn = None if chain is None else chain[start:] * M_TO_CM
@@ -347,8 +354,10 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
 
     def set_extra_segments(self, segments: Optional[Sequence[np.ndarray]]) -> None:
         """Draw more chains beside the measured one (the delta's arms), each (N,3) m, or None."""
-        self._extra_chains = ([] if segments is None else
-                              [np.asarray(s, dtype=float).reshape(-1, 3) for s in segments])
+        chains = [] if segments is None else [np.asarray(s, dtype=float).reshape(-1, 3) for s in segments]
+        if same_chains(chains, self._extra_chains) and not self.redraw_unchanged:
+            return
+        self._extra_chains = chains
         joined = polylines_with_gaps(self._extra_chains)
         self.extra.setData(pos=segment_pairs(None if joined is None else joined * M_TO_CM))
         self._draw_joints()
@@ -371,7 +380,10 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
 
     def set_markers(self, points: Mapping[int, np.ndarray]) -> None:
         """Draw marker positions {id: (3,) m} as labelled dots."""
-        self._markers = {int(k): np.asarray(v, dtype=float).reshape(3) for k, v in points.items()}
+        markers = {int(k): np.asarray(v, dtype=float).reshape(3) for k, v in points.items()}
+        if same_marker_points(markers, self._markers) and not self.redraw_unchanged:
+            return
+        self._markers = markers
         ids = sorted(self._markers)
         xyz = np.array([self._markers[i] for i in ids]).reshape(-1, 3) * M_TO_CM
         self._set_dots(self.markers, xyz)

@@ -85,7 +85,9 @@ class BridgePicker(QtWidgets.QWidget):
 
     def set_status(self, text: str, ok: bool) -> None:
         colour = "#2e9d44" if ok else "#d32f2f"
-        self.status_label.setText(f"<span style='color:{colour}'>{text}</span>")
+        html = f"<span style='color:{colour}'>{text}</span>"
+        if html != self.status_label.text():  # the window repeats it twice a second
+            self.status_label.setText(html)
 
     def _on_connect(self) -> None:
         port = self.port()

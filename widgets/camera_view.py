@@ -57,6 +57,14 @@ class MarkerOverlay:
         return cls(obs.marker_id, np.asarray(corners, dtype=float), obs.found, label)
 
 
+def same_overlays(a: Sequence[MarkerOverlay], b: Sequence[MarkerOverlay]) -> bool:
+    """True when two overlay lists draw the same: ids, corners, found and labels, in order."""
+    return len(a) == len(b) and all(
+        x is y or (x.marker_id == y.marker_id and x.found == y.found and x.label == y.label
+                   and np.array_equal(x.corners, y.corners))
+        for x, y in zip(a, b))
+
+
 def marker_label(marker_id: int, base_p: Optional[Sequence[float]]) -> str:
     """"23: x 3.1 y 15.2 z 0.0 cm" from a position in metres (just "23" when unknown)."""
     if base_p is None:
@@ -100,23 +108,29 @@ class _MarkerGraphics:
             view_box.addItem(item, ignoreBounds=True)
         self.marker_id: Optional[int] = None
         self.polygon = QtGui.QPolygonF()
+        self._found: Optional[bool] = None  # the outline's pen and the id's colour are for this
 
     def show(self, m: MarkerOverlay) -> None:
         closed = np.vstack([m.corners, m.corners[:1]])
         colour = FOUND_COLOUR if m.found else LOST_COLOUR
-        style = QtCore.Qt.PenStyle.SolidLine if m.found else QtCore.Qt.PenStyle.DashLine
-        self.outline.setData(closed[:, 0], closed[:, 1],
-                             pen=pg.mkPen(colour, width=3, style=style))
+        if m.found != self._found:  # a marker moving in view: only its place changes
+            style = QtCore.Qt.PenStyle.SolidLine if m.found else QtCore.Qt.PenStyle.DashLine
+            self.outline.setPen(pg.mkPen(colour, width=3, style=style))
+            self.id_text.setColor(colour)
+            self._found = m.found
+        self.outline.setData(closed[:, 0], closed[:, 1])
         centre = m.corners.mean(axis=0)
-        self.id_text.setText(str(m.marker_id))
-        self.id_text.setColor(colour)
+        if m.marker_id != self.marker_id:
+            self.id_text.setText(str(m.marker_id))
         self.id_text.setPos(float(centre[0]), float(centre[1]))
-        top = m.corners[np.argmin(m.corners[:, 1])]  # smallest row = highest on screen
-        self.label_text.setText(m.label)
-        self.label_text.setPos(float(centre[0]), float(top[1]) - 2.0)
-        self.label_text.setVisible(bool(m.label))
+        if m.label != self.label_text.toPlainText():
+            self.label_text.setText(m.label)
+        if m.label:  # small views show ids only: no label to place
+            top = m.corners[np.argmin(m.corners[:, 1])]  # smallest row = highest on screen
+            self.label_text.setPos(float(centre[0]), float(top[1]) - 2.0)
+        _set_visible(self.label_text, bool(m.label))
         self.outline.setVisible(True)
-        self.id_text.setVisible(True)
+        _set_visible(self.id_text, True)
         self.marker_id = m.marker_id
         self.polygon = QtGui.QPolygonF([QtCore.QPointF(float(x), float(y)) for x, y in m.corners])
 
@@ -130,8 +144,15 @@ class _MarkerGraphics:
         if self.marker_id is None:
             return
         self.outline.setVisible(visible)
-        self.id_text.setVisible(visible)
-        self.label_text.setVisible(visible and bool(self.label_text.toPlainText()))
+        _set_visible(self.id_text, visible)
+        _set_visible(self.label_text, visible and bool(self.label_text.toPlainText()))
+
+
+def _set_visible(item: pg.TextItem, visible: bool) -> None:
+    """TextItem.setVisible(True) re-computes the item's transform even when it is shown: skip
+    it when the visibility does not change (every frame of a moving marker)."""
+    if item.isVisible() != visible:
+        item.setVisible(visible)
 
 
 class CameraView(QtWidgets.QWidget):
@@ -156,12 +177,23 @@ class CameraView(QtWidgets.QWidget):
     sigMarkerClicked = QtCore.Signal(int)
     sigDisplayModeChanged = QtCore.Signal(str)
 
+    # True: show_image/show_disparity/set_markers redraw even what is already shown (the
+    # window's redraw-all mode, the baseline of bench/bench_window.py). False: the very array
+    # already on screen, or the same overlays, are not set again.
+    redraw_unchanged = False
+
     def __init__(self, title: str = "Left", parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self._mode = "image"
         self._shape: Optional[tuple[int, int]] = None  # (rows, cols) of what is displayed
         self._last_image: Optional[np.ndarray] = None
         self._last_disparity: Optional[tuple[np.ndarray, float]] = None
+        # what the image items show now: a source re-delivers the very same array for a
+        # frame that did not change, so identity (no pixel hashing) tells a frame to skip
+        self._shown_image: Optional[np.ndarray] = None
+        self._shown_disparity: Optional[tuple[np.ndarray, float]] = None
+        self._shown_overlays: list[MarkerOverlay] = []
+        self._frames_drawn = 0
         self._max_disparity = 64.0
         self._markers: list[_MarkerGraphics] = []
 
@@ -256,10 +288,20 @@ class CameraView(QtWidgets.QWidget):
         self.toggle_button.blockSignals(blocked)
         self._apply_mode(mode)
 
+    @property
+    def frames_drawn(self) -> int:
+        """How many images (camera or disparity) were handed to the image items so far."""
+        return self._frames_drawn
+
     def show_image(self, bgr: np.ndarray) -> None:
-        """Display a BGR, BGRA or grey uint8 image (kept to re-show after disparity mode)."""
+        """Display a BGR, BGRA or grey uint8 image (kept to re-show after disparity mode).
+
+        The array already on screen (the same object) is not drawn again.
+        """
         self._last_image = bgr
         if self._mode != "image":
+            return
+        if bgr is self._shown_image and not self.redraw_unchanged:
             return
         # cv2 swaps channels in ~0.1 ms; a reversed numpy view makes pyqtgraph copy slowly
         if bgr.ndim == 3 and bgr.shape[2] == 3:
@@ -268,7 +310,11 @@ class CameraView(QtWidgets.QWidget):
             rgb = cv2.cvtColor(bgr, cv2.COLOR_BGRA2RGBA)
         else:
             rgb = bgr
-        self._image_item.setImage(rgb, autoLevels=False, levels=(0, 255))
+        # no levels: a uint8 image then becomes a QImage as is; levels=(0, 255) made
+        # pyqtgraph rescale every pixel (~0.6 ms a frame at 640x480)
+        self._image_item.setImage(rgb, autoLevels=False)
+        self._shown_image = bgr
+        self._frames_drawn += 1
         self._ensure_range(bgr.shape[0], bgr.shape[1])
 
     def show_disparity(self, disp_px: np.ndarray, max_disparity: float) -> None:
@@ -279,8 +325,14 @@ class CameraView(QtWidgets.QWidget):
             self._colour_bar.setLevels((0.0, self._max_disparity))
         if self._mode != "disparity":
             return
+        shown = self._shown_disparity
+        if (shown is not None and shown[0] is disp_px and shown[1] == max_disparity
+                and not self.redraw_unchanged):
+            return
         index = disparity_to_index(disp_px, max_disparity)
         self._disparity_item.setImage(index, autoLevels=False, levels=(0, 255))
+        self._shown_disparity = (disp_px, max_disparity)
+        self._frames_drawn += 1
         self._ensure_range(index.shape[0], index.shape[1])
 
     def set_depth_legend(self, ticks: Sequence[tuple[float, str]]) -> None:
@@ -322,7 +374,10 @@ class CameraView(QtWidgets.QWidget):
         self._place_overlays()
 
     def set_markers(self, markers: Sequence[MarkerOverlay]) -> None:
-        """Draw these marker outlines (replacing the previous ones)."""
+        """Draw these marker outlines (replacing the previous ones); the same again is skipped."""
+        if same_overlays(markers, self._shown_overlays) and not self.redraw_unchanged:
+            return
+        self._shown_overlays = list(markers)
         while len(self._markers) < len(markers):
             self._markers.append(_MarkerGraphics(self._view_box))
         for slot, marker in zip(self._markers, markers):
@@ -334,6 +389,8 @@ class CameraView(QtWidgets.QWidget):
     def set_fps(self, fps: float) -> None:
         """Show the frame rate in the view's bottom-left corner (NaN or ≤ 0: "— fps")."""
         text = f"{fps:.1f} fps" if math.isfinite(fps) and fps > 0 else "— fps"
+        if text == self._fps_label.text():
+            return  # no resize, no re-placing of the overlays
         self._fps_label.setText(text)
         self._fps_label.adjustSize()
         self._place_overlays()

@@ -163,16 +163,22 @@ class JointReadout(QtWidgets.QWidget):
 
     def set_values(self, commanded_deg: Optional[Sequence[float]],
                    measured_deg: Optional[Sequence[float]]) -> None:
-        """Show commanded and measured angles (deg); None (whole or per joint) shows "—"."""
+        """Show commanded and measured angles (deg); None (whole or per joint) shows "—".
+
+        Labels and bars whose values did not change are not touched (no relayout, no repaint).
+        """
         for i, ((_, cmd, meas, _), bar) in enumerate(zip(self._rows, self._bars)):
             c, m = _entry(commanded_deg, i), _entry(measured_deg, i)
-            cmd.setText("—" if c is None else f"{c:.1f}")
-            meas.setText("—" if m is None else f"{m:.1f}")
+            for label, text in ((cmd, "—" if c is None else f"{c:.1f}"),
+                                (meas, "—" if m is None else f"{m:.1f}")):
+                if label.text() != text:
+                    label.setText(text)
             level = _worst([limit_level(c, self._min[i], self._max[i]),
                             limit_level(m, self._min[i], self._max[i])])
             self._levels[i] = level
-            bar.commanded, bar.measured, bar.level = c, m, level
-            bar.update()
+            if (bar.commanded, bar.measured, bar.level) != (c, m, level):
+                bar.commanded, bar.measured, bar.level = c, m, level
+                bar.update()
 
     def levels(self) -> list[str]:
         """Per joint: "ok", "near" or "at" a limit (worst of commanded and measured)."""

@@ -89,14 +89,24 @@ class StatusBarItems:
             status_bar.addPermanentWidget(label)
 
     def update(self, camera: str, bridge: str, fps: float, latency_ms: float) -> None:
-        """Show the camera and bridge states, frames per second and end-to-end latency."""
-        self.camera_label.setText(f"camera: {camera}")
-        self.camera_label.setStyleSheet(_state_style(camera))
-        self.bridge_label.setText(f"bridge: {bridge}")
-        self.bridge_label.setStyleSheet(_state_style(bridge))
-        self.fps_label.setText("— fps" if not math.isfinite(fps) else f"{fps:.1f} fps")
-        self.latency_label.setText("latency — ms" if not math.isfinite(latency_ms)
-                                   else f"latency {latency_ms:.0f} ms")
+        """Show the camera and bridge states, frames per second and end-to-end latency.
+
+        Only labels whose text or colour changed are touched: a style sheet set again, even
+        the same one, re-polishes the label and re-lays out the status bar.
+        """
+        _set_label(self.camera_label, f"camera: {camera}", _state_style(camera))
+        _set_label(self.bridge_label, f"bridge: {bridge}", _state_style(bridge))
+        _set_label(self.fps_label, "— fps" if not math.isfinite(fps) else f"{fps:.1f} fps")
+        _set_label(self.latency_label, "latency — ms" if not math.isfinite(latency_ms)
+                   else f"latency {latency_ms:.0f} ms")
+
+
+def _set_label(label: QtWidgets.QLabel, text: str, style: str | None = None) -> None:
+    """setText / setStyleSheet only when they change what the label shows."""
+    if label.text() != text:
+        label.setText(text)
+    if style is not None and label.styleSheet() != style:
+        label.setStyleSheet(style)
 
 
 def _state_style(state: str) -> str:

@@ -405,6 +405,8 @@ class TargetPanel(QtWidgets.QWidget):
     # ----------------------------------------------------------------------------- status
     def set_reach_status(self, text: str, ok: bool) -> None:
         """Show a reach message, e.g. "out of reach by 23 mm — going to the nearest point"."""
+        if text == self.reach_label.text() and self.reach_label.property("reach_ok") == bool(ok):
+            return  # the usual frame: a style sheet set again re-polishes and re-lays out
         self.reach_label.setText(text)
         if ok:
             style = f"QLabel {{ color: {OK_COLOUR}; padding: 2px 4px; }}"
