@@ -515,6 +515,17 @@ class TwinBase:
     redraw_unchanged = False
     _coloured_reachable: Optional[bool] = None  # the reachability the target is coloured for
 
+    def _take_arm(self, commanded, measured) -> bool:
+        """Keep the chains (N,3 m, or None) of ``set_arm``; False when both are where they were
+        drawn (:func:`same_points`) and nothing needs drawing."""
+        commanded = None if commanded is None else np.asarray(commanded, dtype=float)
+        measured = None if measured is None else np.asarray(measured, dtype=float)
+        if (not self.redraw_unchanged and same_points(commanded, self._commanded)
+                and same_points(measured, self._measured)):
+            return False  # the arm holds still
+        self._commanded, self._measured = commanded, measured
+        return True
+
     def set_joint_levels(self, levels: Optional[Sequence[str]]) -> None:
         """Colour the measured arm's joint dots: per joint "ok", "warn" (orange) or "limit"
         (red); None hides them. See :func:`profile_joint_levels`.
@@ -688,12 +699,8 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
 
         Nothing is redrawn when both chains are where they were drawn (:func:`same_points`).
         """
-        commanded = None if commanded is None else np.asarray(commanded, dtype=float)
-        measured = None if measured is None else np.asarray(measured, dtype=float)
-        if (not self.redraw_unchanged and same_points(commanded, self._commanded)
-                and same_points(measured, self._measured)):
-            return  # the arm holds still
-        self._commanded, self._measured = commanded, measured
+        if not self._take_arm(commanded, measured):
+            return
         if self._fixed_azimuth is None:
             azimuth = arm_azimuth(self._commanded, self._measured, self._azimuth)
         else:

@@ -40,7 +40,6 @@ from widgets.arm_twin import (
     polylines_with_gaps,
     same_chains,
     same_marker_points,
-    same_points,
     side_azimuth_for,
     structure_segments,
     view_extent,
@@ -333,12 +332,8 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
 
     def set_arm(self, commanded: Optional[np.ndarray], measured: Optional[np.ndarray]) -> None:
         """Draw the commanded (thin, translucent) and measured (thick) chains, (N,3) m, or None."""
-        commanded = None if commanded is None else np.asarray(commanded, dtype=float)
-        measured = None if measured is None else np.asarray(measured, dtype=float)
-        if (not self.redraw_unchanged and same_points(commanded, self._commanded)
-                and same_points(measured, self._measured)):
-            return  # the arm holds still
-        self._commanded, self._measured = commanded, measured
+        if not self._take_arm(commanded, measured):
+            return
         start = self._chain_start
         for chain, item in ((self._commanded, self.commanded), (self._measured, self.measured)):
             drawn = None if chain is None else chain[start:] * M_TO_CM
