@@ -63,3 +63,58 @@ def test_a_bad_import_breaks_its_contract(tmp_path, lint_tool, module, bad_impor
     assert done.returncode != 0, f"{bad_import} in {module} passed:\n{done.stdout}"
     broken_lines = [line for line in done.stdout.splitlines() if line.endswith("BROKEN")]
     assert any(line.startswith(broken) for line in broken_lines), done.stdout
+
+
+def import_cycles(package: str) -> list[list[str]]:
+    """Strongly connected components of more than one module in ``package``'s import graph
+    (every import, also inside functions; TYPE_CHECKING-only imports left out), package
+    ``__init__`` modules included."""
+    import grimp
+
+    graph = grimp.build_graph(package, exclude_type_checking_imports=True, cache_dir=None)
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles: list[list[str]] = []
+
+    def visit(module: str) -> None:  # Tarjan's algorithm
+        index[module] = low[module] = len(index)
+        stack.append(module)
+        on_stack.add(module)
+        for imported in graph.find_modules_directly_imported_by(module):
+            if imported not in index:
+                visit(imported)
+                low[module] = min(low[module], low[imported])
+            elif imported in on_stack:
+                low[module] = min(low[module], index[imported])
+        if low[module] == index[module]:
+            component = []
+            while True:
+                m = stack.pop()
+                on_stack.discard(m)
+                component.append(m)
+                if m == module:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for module in sorted(graph.modules):
+        if module not in index:
+            visit(module)
+    return cycles
+
+
+def test_no_module_of_core_takes_part_in_an_import_cycle():
+    """Also cycles through a package's __init__ (which the sibling contract does not see)."""
+    assert import_cycles("core") == []
+
+
+def test_the_cycle_finder_finds_a_cycle(tmp_path, monkeypatch):
+    pkg = tmp_path / "cyc"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("from cyc import a\n")
+    (pkg / "a.py").write_text("def f():\n    from cyc import b\n")
+    (pkg / "b.py").write_text("import cyc\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert import_cycles("cyc") == [["cyc", "cyc.a", "cyc.b"]]
