@@ -78,6 +78,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._bridge_status = None
         self._frame_times: list[float] = []
         self._latency_ms = 0.0
+        self._latency_source_t: Optional[float] = None  # frame time behind the latency shown
         self._camera_error: Optional[str] = None
         self._health_message = ""
         self._note = ""
@@ -384,7 +385,10 @@ class MainWindow(QtWidgets.QMainWindow):
         """A control tick's command: up to 50 Hz, also while the arm holds still (the held
         command again with a new seq), which marks nothing dirty."""
         self._command, self._goal = command, goal
-        if command.source_t is not None:
+        if command.source_t is not None and command.source_t != self._latency_source_t:
+            # the first command carrying a new frame: frame -> command (as shown here); the
+            # ticks after it carry the same frame time, their age is not a latency
+            self._latency_source_t = command.source_t
             self._latency_ms = (self.session.clock.now() - command.source_t) * 1e3
         if not self._only_changes or (not self._dirty and command_changed(
                 self._drawn_command, self._drawn_goal, command, goal)):

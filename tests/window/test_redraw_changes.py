@@ -300,3 +300,18 @@ def test_a_moving_marker_is_drawn_at_camera_rate(qtbot):
         qtbot.waitUntil(lambda: w.status_items.fps_label.text() != "— fps", timeout=3000)
     finally:
         w.stop()
+
+
+def test_the_latency_shown_is_of_the_first_command_carrying_a_frame_not_of_the_ticks_after_it(window):
+    """Ticks repeat the last frame's time in source_t: its age grows, but that is no latency."""
+    clock_now = {"t": 10.010}
+    window.session.clock.now = lambda: clock_now["t"]
+    cmd, goal = command(1, window.session.profile.q_home)
+    window.on_command(replace(cmd, source_t=10.0), goal)
+    assert window._latency_ms == pytest.approx(10.0)
+    clock_now["t"] = 10.030  # a tick 20 ms later, same frame behind it
+    window.on_command(replace(cmd, seq=2, source_t=10.0), goal)
+    assert window._latency_ms == pytest.approx(10.0)
+    clock_now["t"] = 10.036  # the next frame's command, 3 ms after that frame
+    window.on_command(replace(cmd, seq=3, source_t=10.033), goal)
+    assert window._latency_ms == pytest.approx(3.0)
