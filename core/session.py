@@ -78,7 +78,10 @@ class DeskSession:
         clock = SimClock() if options.simulated_clock else WallClock()
         profile = load_profile(options.robot)
         kinematics = build_kinematics(profile)
-        camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps)
+        # the simulated desk stands in for missing cameras only when the arm is simulated too
+        simulated_arm = parse_bridge_url(options.bridge) == "sim"
+        camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps,
+                                     fallback_to_sim=simulated_arm)
         banners = [banner] if banner else []
         calibration, note = load_session_calibration(camera, options.calibration)
         if note:
@@ -100,6 +103,16 @@ class DeskSession:
     def control_schedule(self):
         """A fresh ControlSchedule for this session's controller and bridge (its rate cap)."""
         return schedule_for(self.controller.period_s, self.bridge, self.options.event_driven)
+
+    def real_arm_refusal(self, bridge_url: str) -> str:
+        """Why switching to ``bridge_url`` is refused ("" when it is not): a real arm never
+        follows the simulated desk that stands in for missing cameras — only a user who asked
+        for ``--camera sim`` gets a real arm on the simulated scene."""
+        if parse_bridge_url(bridge_url) == "sim" or not self.is_simulated_camera or self.options.camera == "sim":
+            return ""
+        return (f"{bridge_url}: not connected — no camera was found, the views show the simulated desk, and a "
+                "real arm would follow markers that do not exist. Plug in the cameras and restart deskarm, "
+                "or start it with --camera sim to drive a real arm from the simulated desk on purpose")
 
     @property
     def is_simulated_camera(self) -> bool:

@@ -197,8 +197,11 @@ def explain_serial_error(url: str, exc: Exception) -> str:
     return f"{url}: {text or type(exc).__name__}"
 
 
-_SERIAL_URL_PREFIXES = ("/dev/", "COM", "\\\\.\\COM", "loop://", "socket://", "rfc2217://",
-                        "spy://", "hwgrep://", "alt://", "cp2110://")
+# the pyserial URLs deskarm documents: the loopback and network serial servers (ser2net,
+# ESP-Link). The others are refused: spy://…?file=PATH truncates PATH when the bridge opens
+# (even if the port then fails); hwgrep://, alt://, cp2110:// pick devices nobody named
+SERIAL_URL_SCHEMES = ("loop", "socket", "rfc2217")
+_SERIAL_URL_PREFIXES = ("/dev/", "COM", "\\\\.\\COM") + tuple(f"{s}://" for s in SERIAL_URL_SCHEMES)
 V1_PREFIX = "v1:"  # explicit protocol v1 (the default for a plain port)
 V2_PREFIX = "v2:"  # protocol v2: deskarm firmware only (see the module docstring)
 

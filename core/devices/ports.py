@@ -15,6 +15,8 @@ import stat
 from dataclasses import dataclass
 from typing import Optional
 
+from core.devices.bridge import SERIAL_URL_SCHEMES
+
 BY_ID_DIR = "/dev/serial/by-id"
 
 # USB vendor ids -> (rank, what it usually is); lower rank sorts first in the picker
@@ -131,7 +133,8 @@ def _pyserial_scheme_exists(scheme: str) -> bool:
 
 def validate_typed_path(text: str) -> str:
     """A port the user typed, checked: an existing device path (ptys included), ``COMn``, or a
-    pyserial URL (``loop://``, ``socket://host:port``, …); a ``v1:``/``v2:`` prefix is kept.
+    pyserial URL deskarm documents (``loop://``, ``socket://host:port``, ``rfc2217://host:port``);
+    a ``v1:``/``v2:`` prefix is kept.
 
     Returns the cleaned-up name; raises ValueError saying what is wrong and what would work.
     """
@@ -142,10 +145,12 @@ def validate_typed_path(text: str) -> str:
         return text[:3].lower() + validate_typed_path(text[3:])
     if "://" in text:
         scheme = text.split("://", 1)[0].lower()
-        if _pyserial_scheme_exists(scheme):
+        if scheme in SERIAL_URL_SCHEMES and _pyserial_scheme_exists(scheme):
             return text
-        raise ValueError(f"{text}: unknown URL scheme '{scheme}://' — pyserial knows e.g. loop://, "
-                         "socket://host:port, rfc2217://host:port, spy://, hwgrep://")
+        known = "" if _pyserial_scheme_exists(scheme) else "unknown "
+        raise ValueError(f"{text}: {known}URL scheme '{scheme}://' is not accepted — deskarm takes "
+                         "loop://, socket://host:port and rfc2217://host:port (spy:// would overwrite "
+                         "the file it logs to, hwgrep:// picks a device you did not name)")
     if re.fullmatch(r"(\\\\\.\\)?com\d+", text, re.IGNORECASE):
         return re.sub(r"(?i)com", "COM", text)
     path = os.path.expanduser(text)

@@ -456,13 +456,23 @@ class WebcamStereoCamera(CameraSource):
         return ("sbs:" if self.side_by_side else "webcam:") + ",".join(str(d) for d in self.devices)
 
     # lifecycle -------------------------------------------------------------------------------
-    def connect(self) -> None:
+    def connect(self, keep_trying: bool = False) -> None:
+        """Open the device(s); CameraError when one does not open.
+
+        ``keep_trying``: a device that does not open is tried again every ``retry_interval_s``
+        instead (as after an unplug): the source runs, ``is_connected`` stays False and
+        ``status_message`` says which camera is missing until it delivers frames.
+        """
         if self._running.is_set():
             return
         grabbers = ([_Grabber(self, self.devices[0], (0, 1))] if self.side_by_side else
                     [_Grabber(self, self.devices[0], (0,)), _Grabber(self, self.devices[1], (1,))])
+        missing = []
         for g in grabbers:
             if not g.open():
+                missing.append(g)
+                if keep_trying:
+                    continue
                 for other in grabbers:
                     other.release()
                 raise CameraError(
@@ -475,6 +485,8 @@ class WebcamStereoCamera(CameraSource):
         self.status_message = ""
         for g in grabbers:
             g.start()
+        if missing:
+            self._on_state_change(missing[0])
 
     def disconnect(self) -> None:
         self._running.clear()
@@ -872,8 +884,11 @@ def open_camera(spec: str, scenario: str = "static", clock=None, fps: float = 30
                 fallback_to_sim: bool = True, capture_factory: Callable | None = None) -> tuple[CameraSource, str]:
     """Open the camera(s) named by ``spec``; returns (source, banner).
 
-    When real cameras (or a folder) do not open and ``fallback_to_sim`` is set, the simulated
-    desk is returned with a banner saying why — a missing camera is a visible state, not a crash.
+    ``auto`` with no webcam gives the simulated desk when ``fallback_to_sim`` (nothing plugged
+    in, a simulated arm). A webcam the user named, or any webcam when ``fallback_to_sim`` is off
+    (a real arm attached), that does not open gives that source, not connected and retrying,
+    with a banner saying so: a missing camera is a visible state, never a crash and never a
+    simulated scene behind a real arm. A folder that cannot be read raises CameraError.
     """
     s = camera_spec(spec)
     if s.kind == "sim":
@@ -894,12 +909,17 @@ def open_camera(spec: str, scenario: str = "static", clock=None, fps: float = 30
         cam.connect()
         return cam, ""
     except CameraError as exc:
-        if not (fallback_to_sim or s.kind == "auto"):
+        if s.kind == "auto" and fallback_to_sim:  # nothing plugged in: the simulated desk
+            sim = simulated_camera(scenario=scenario, fps=fps, clock=clock)
+            sim.connect()
+            return sim, "SIMULATED DESK — no camera found"
+        if s.kind == "folder":
             raise
-        sim = simulated_camera(scenario=scenario, fps=fps, clock=clock)
-        sim.connect()
-        why = "no camera found" if s.kind == "auto" else str(exc)
-        return sim, f"SIMULATED DESK — {why}"
+        # a camera the user named, or any camera with a real arm attached: never the simulated
+        # desk (a real arm would follow a scene that does not exist); no frames, no goal, the
+        # arm holds, and the source keeps trying the device
+        cam.connect(keep_trying=True)
+        return cam, f"CAMERA MISSING — {exc} The arm holds until the camera delivers frames (retrying)."
 
 
 __all__ = [

@@ -273,16 +273,46 @@ def test_interrupt_wakes_a_waiting_read(devices, webcams):
     assert not t.is_alive() and result == [None]
 
 
-def test_a_camera_that_does_not_open_falls_back_to_the_simulated_desk_with_a_banner():
-    closed = FakeDevice(1)
-    closed.plugged.clear()
-    cam, banner = open_camera("0,2", clock=SimClock(), capture_factory=lambda d: FakeCapture(closed))
+def test_a_named_camera_that_does_not_open_is_a_visible_missing_state_never_the_simulated_desk():
+    """`--camera 0,2` with the cameras unplugged: no simulated scene (a real arm would follow
+    markers that do not exist), no frames, a banner and a status naming the camera, and the
+    source keeps trying until the camera is plugged in."""
+    device = FakeDevice(1)
+    device.plugged.clear()
+    for fallback in (True, False):  # whatever the arm
+        cam, banner = open_camera("0,2", clock=SimClock(), fallback_to_sim=fallback,
+                                  capture_factory=lambda d: FakeCapture(device))
+        try:
+            assert cam.kind == "webcam" and not cam.is_connected
+            assert banner.startswith("CAMERA MISSING — camera 0 did not open") and "arm holds" in banner
+            assert "cameras 0, 2 unplugged" in cam.status_message and "retrying" in cam.status_message
+            cam.read_timeout_s = 0.01
+            assert cam.read() is None
+        finally:
+            cam.disconnect()
+    cam, _ = open_camera("0,2", clock=SimClock(), capture_factory=lambda d: FakeCapture(device))
     try:
-        assert cam.kind == "sim" and banner.startswith("SIMULATED DESK — camera 0 did not open")
+        cam.retry_interval_s = 0.01
+        device.plugged.set()  # plugged in later: frames come
+        assert cam.wait_connected(True, timeout=5.0)
     finally:
         cam.disconnect()
-    with pytest.raises(CameraError, match="did not open"):
-        open_camera("0,2", fallback_to_sim=False, capture_factory=lambda d: FakeCapture(closed))
+
+
+def test_auto_falls_back_to_the_simulated_desk_only_with_a_simulated_arm():
+    device = FakeDevice(1)
+    device.plugged.clear()
+    cam, banner = open_camera("auto", clock=SimClock(), capture_factory=lambda d: FakeCapture(device))
+    try:
+        assert cam.kind == "sim" and banner == "SIMULATED DESK — no camera found"
+    finally:
+        cam.disconnect()
+    cam, banner = open_camera("auto", clock=SimClock(), fallback_to_sim=False,
+                              capture_factory=lambda d: FakeCapture(device))
+    try:
+        assert cam.kind == "webcam" and not cam.is_connected and banner.startswith("CAMERA MISSING")
+    finally:
+        cam.disconnect()
 
 
 def test_querying_control_ranges_without_a_device_gives_nothing():
@@ -324,9 +354,8 @@ def test_an_empty_or_missing_folder_says_what_it_expected(tmp_path):
         FolderStereoCamera(tmp_path).connect()
     with pytest.raises(CameraError, match="no such folder"):
         FolderStereoCamera(tmp_path / "nope").connect()
-    cam, banner = open_camera(f"folder:{tmp_path / 'nope'}", clock=SimClock())
-    assert cam.kind == "sim" and "no such folder" in banner
-    cam.disconnect()
+    with pytest.raises(CameraError, match="no such folder"):  # a typo in a path: one clear line
+        open_camera(f"folder:{tmp_path / 'nope'}", clock=SimClock())
 
 
 def test_open_camera_opens_a_folder(tmp_path):
