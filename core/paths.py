@@ -1,7 +1,10 @@
-"""Where deskarm keeps a user's files: the config and cache folders (``DESKARM_HOME`` overrides)."""
+"""Where deskarm keeps a user's files: the config and cache folders (``DESKARM_HOME`` overrides),
+and the one way files are written there (whole or not at all, errors that name the path)."""
 from __future__ import annotations
 
+import errno
 import os
+import tempfile
 from pathlib import Path
 
 
@@ -15,3 +18,56 @@ def user_dir(kind: str) -> Path:
     if kind == "config":
         return Path(platformdirs.user_config_dir("deskarm"))
     return Path(platformdirs.user_cache_dir("deskarm"))
+
+
+def os_error_reason(exc: OSError) -> str:
+    """What went wrong, in words ("permission denied"), without the ``[Errno 13]`` prefix."""
+    if isinstance(exc, PermissionError) or exc.errno in (errno.EACCES, errno.EPERM):
+        return "permission denied"
+    if exc.strerror:
+        return exc.strerror[:1].lower() + exc.strerror[1:]
+    return str(exc) or type(exc).__name__
+
+
+def _user_folder_hint(path: Path) -> str:
+    try:
+        mine = any(path.resolve().is_relative_to(user_dir(k).resolve()) for k in ("config", "cache"))
+    except (OSError, RuntimeError):  # an unresolvable path is simply not one of ours
+        mine = False
+    return " or set DESKARM_HOME to a writable folder" if mine else " or choose another path"
+
+
+def write_error(path: Path, exc: OSError) -> OSError:
+    """An OSError of the same kind as ``exc`` whose message names ``path``, the reason and the fix."""
+    folder = Path(path).parent
+    if isinstance(exc, PermissionError) or exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        fix = f"make {folder} writable for your user{_user_folder_hint(Path(path))}"
+    else:
+        fix = f"check {folder}{_user_folder_hint(Path(path))}"
+    error = type(exc)(f"{path}: cannot write: {os_error_reason(exc)} — {fix}")
+    error.errno = exc.errno  # callers may still test the errno; str() stays the message above
+    return error
+
+
+def write_file_atomically(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file beside it and a rename, creating the
+    folder if needed: the file is whole or unchanged. Raises an OSError naming the path and the
+    fix ("…: cannot write: permission denied — make … writable …") instead of a bare ``[Errno 13]``."""
+    path = Path(path)
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # a unique name: two deskarm processes starting together write the same file safely
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        tmp = Path(name)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except OSError as exc:
+        if tmp is not None:
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:  # the folder refused the write: it may refuse the clean-up too
+                pass
+        raise write_error(path, exc) from None
+    return path

@@ -108,7 +108,11 @@ class DeskSession:
         """Why switching to ``bridge_url`` is refused ("" when it is not): a real arm never
         follows the simulated desk that stands in for missing cameras — only a user who asked
         for ``--camera sim`` gets a real arm on the simulated scene."""
-        if parse_bridge_url(bridge_url) == "sim" or not self.is_simulated_camera or self.options.camera == "sim":
+        try:
+            simulated_arm = parse_bridge_url(bridge_url) == "sim"
+        except ValueError:
+            return ""  # not a bridge URL at all: open_bridge says so
+        if simulated_arm or not self.is_simulated_camera or self.options.camera == "sim":
             return ""
         return (f"{bridge_url}: not connected — no camera was found, the views show the simulated desk, and a "
                 "real arm would follow markers that do not exist. Plug in the cameras and restart deskarm, "
@@ -171,8 +175,11 @@ def load_session_calibration(camera: CameraSource, path: Optional[str]) -> tuple
 
         w, h = size or (640, 480)
         nominal = SimRig(SimRigConfig(width=w, height=h, focal_px=430.0 * w / 640.0)).calibration()
-        why = str(exc) if path else "no stereo calibration yet — run `deskarm calibrate`"
-        return nominal, f"UNCALIBRATED: nominal parameters, 3D positions approximate ({why})"
+        if path is None and exc.missing:  # nothing installed yet: the usual first start
+            return nominal, ("UNCALIBRATED: nominal parameters, 3D positions approximate "
+                             "(no stereo calibration yet — run `deskarm calibrate`)")
+        # a file that is there but unusable (installed or given) says which file and why
+        return nominal, f"UNCALIBRATED: {exc} (nominal parameters meanwhile, 3D positions approximate)"
 
 
 def camera_image_size(camera: CameraSource) -> Optional[tuple[int, int]]:

@@ -418,8 +418,11 @@ def _check_joint(where: str, prefix: str, f: Mapping[str, Any]) -> None:
         why="it must be greater than servo_min_deg" if f["servo_max_deg"] <= f["servo_min_deg"] else "",
     )
     _check_range(where, prefix + "offset_deg", f["offset_deg"], -OFFSET_LIMIT_DEG, OFFSET_LIMIT_DEG)
-    if f["direction"] not in (1, -1) or isinstance(f["direction"], bool):
-        raise ProfileError(f"{where}{prefix}direction = {f['direction']!r} must be 1 or -1")
+    direction = f["direction"]
+    # integers only: 1.0 == 1 slips through `in (1, -1)`; one spelling for one meaning
+    if not isinstance(direction, int) or isinstance(direction, bool) or direction not in (1, -1):
+        raise ProfileError(f"{where}{prefix}direction = {direction!r} must be 1 or -1 (an integer: "
+                           f"write `direction = 1` or `direction = -1`)")
     _check_range(
         where,
         prefix + "max_speed_deg_s",
@@ -927,6 +930,9 @@ def load_profile(name_or_path: Union[str, os.PathLike], tip: Optional[str] = Non
         raise ProfileError(f"{source}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     try:
         data = tomllib.loads(text)
+        return parse_profile(data, source, tip=tip, base_dir=base_dir)
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"{source}: invalid TOML: {exc}") from None
-    return parse_profile(data, source, tip=tip, base_dir=base_dir)
+    except RecursionError:  # tomllib recurses per nested array/inline table; messages repr values
+        raise ProfileError(f"{source}: nested too deeply (arrays or tables hundreds of levels inside "
+                           f"each other) — a robot profile needs a few levels; fix the file") from None

@@ -14,9 +14,27 @@ from typing import Mapping, Optional, Union
 import cv2
 import numpy as np
 
+from core.paths import os_error_reason, user_dir, write_file_atomically
+
 
 class CalibrationError(ValueError):
-    """A calibration file is missing, corrupt or does not fit the cameras."""
+    """A calibration file is missing, corrupt or does not fit the cameras.
+
+    ``path`` is the file (when one is concerned), ``key`` the offending key when one is to blame,
+    and ``missing`` tells "there is no file there at all" (the usual first start) apart from a
+    file that is there but cannot be used.
+    """
+
+    def __init__(self, message: str, *, path: Optional[Union[str, os.PathLike]] = None,
+                 key: Optional[str] = None, missing: bool = False) -> None:
+        super().__init__(message)
+        self.path = None if path is None else Path(path)
+        self.key = key
+        self.missing = missing
+
+
+MAX_IMAGE_SIDE_PX = 8192  # larger "calibrated sizes" are corrupt files: their rectify maps alone need GBs
+MIN_BASELINE_M = 1e-4  # 0.1 mm: below this the two views are one camera and rectification is undefined
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,89 +132,112 @@ def save_calibration(path: str | os.PathLike, calib: StereoCalibration,
             raise ValueError(f"extra key {key!r} would overwrite a calibration key")
         if not key.isidentifier():
             raise ValueError(f"extra key {key!r} is not a valid YAML/FileStorage name")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.yaml")
-    fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
-    try:
-        for key in _MATRIX_KEYS:
-            fs.write(key, np.asarray(getattr(calib, key), dtype=np.float64))
-        fs.write("image_width", int(calib.image_size[0]))
-        fs.write("image_height", int(calib.image_size[1]))
-        fs.write("rms_stereo", float(calib.rms_stereo))
-        fs.write("epipolar_error_px", float(calib.epipolar_error_px))
-        for key, value in (extra or {}).items():
-            fs.write(key, value if isinstance(value, str) else float(value) if isinstance(value, float) else int(value))
-    finally:
-        fs.release()
-    os.replace(tmp, path)  # never leave a half-written calibration behind
-    return path
+    # Composed in memory and written by Python: one place turns a read-only folder into
+    # "…: permission denied — …" (an OSError), and a half-written calibration is never left behind.
+    fs = cv2.FileStorage(".yaml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
+    for key in _MATRIX_KEYS:
+        fs.write(key, np.asarray(getattr(calib, key), dtype=np.float64))
+    fs.write("image_width", int(calib.image_size[0]))
+    fs.write("image_height", int(calib.image_size[1]))
+    fs.write("rms_stereo", float(calib.rms_stereo))
+    fs.write("epipolar_error_px", float(calib.epipolar_error_px))
+    for key, value in (extra or {}).items():
+        fs.write(key, value if isinstance(value, str) else float(value) if isinstance(value, float) else int(value))
+    text = fs.releaseAndGetString()
+    return write_file_atomically(path, text.encode("utf-8"))
 
 
 _EXPECTED_SHAPES = {"M1": (3, 3), "M2": (3, 3), "R": (3, 3)}
+_FIX = "run `deskarm calibrate` again or pick another file"
 
 
 def load_calibration(
     path: str | os.PathLike, expected_size: Optional[tuple[int, int]] = None
 ) -> StereoCalibration:
-    """Read a stereo calibration YAML; validate shapes; fit it to ``expected_size`` if given.
+    """Read a stereo calibration YAML; validate shapes and values; fit it to ``expected_size`` if given.
 
     A file for another resolution with the same aspect ratio has its intrinsics rescaled (and
-    says so in ``notes``); any other mismatch raises CalibrationError naming the problem.
+    says so in ``notes``); any other problem raises CalibrationError naming the file, the key
+    and the fix — never an OpenCV traceback, and nothing of a bad file is used.
     """
     path = Path(path)
-    fix = "run `deskarm calibrate` again or pick another file"
-    if not path.is_file():
-        raise CalibrationError(f"{path}: calibration file not found — {fix}")
+    fix = _FIX
+
+    def bad(message: str, key: Optional[str] = None, **kw) -> CalibrationError:
+        return CalibrationError(f"{path}: {message}", path=path, key=key, **kw)
+
+    if not path.exists():
+        raise bad(f"calibration file not found — {fix}", missing=True)
+    if path.is_dir():
+        raise bad(f"is a folder, expected a calibration YAML file — {fix}")
+    try:  # OpenCV says only "cannot open": ask the OS why first
+        with open(path, "rb"):
+            pass
+    except PermissionError:
+        raise bad(f"cannot read: permission denied — make it readable for your user "
+                  f"(chmod u+r '{path}')") from None
+    except OSError as exc:
+        raise bad(f"cannot read: {os_error_reason(exc)} — {fix}") from None
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:  # OpenCV 5 raises SystemError on parse errors
         first = str(exc).strip().splitlines()[-1] if str(exc).strip() else "unreadable"
-        raise CalibrationError(f"{path}: not a readable OpenCV YAML/XML file ({first}) — {fix}") from None
+        raise bad(f"not a readable OpenCV YAML/XML file ({first}) — {fix}") from None
     try:
         if not fs.isOpened():
-            raise CalibrationError(f"{path}: not a readable OpenCV YAML/XML file — {fix}")
+            raise bad(f"not a readable OpenCV YAML/XML file — {fix}")
         values = {}
         for key in ("M1", "D1", "M2", "D2", "R", "T"):
             node = fs.getNode(key)
             mat = None if node.empty() else node.mat()
             if mat is None:
-                raise CalibrationError(f"{path}: key '{key}' is missing or not a matrix — {fix}")
+                raise bad(f"key '{key}' is missing or not a matrix — {fix}", key)
             values[key] = np.asarray(mat, dtype=np.float64)
-        width = fs.getNode("image_width").real()
-        height = fs.getNode("image_height").real()
-        rms = fs.getNode("rms_stereo").real()
-        epi = fs.getNode("epipolar_error_px").real()
+        scalars = {key: fs.getNode(key).real()
+                   for key in ("image_width", "image_height", "rms_stereo", "epipolar_error_px")}
     finally:
         fs.release()
     for key, shape in _EXPECTED_SHAPES.items():
         if values[key].shape != shape:
-            raise CalibrationError(
-                f"{path}: '{key}' has shape {values[key].shape}, expected {shape} — {fix}"
-            )
+            raise bad(f"'{key}' has shape {values[key].shape}, expected {shape} — {fix}", key)
     if values["T"].size != 3:
-        raise CalibrationError(f"{path}: 'T' has {values['T'].size} values, expected 3 — {fix}")
+        raise bad(f"'T' has {values['T'].size} values, expected 3 — {fix}", "T")
     for key in ("D1", "D2"):
         if values[key].size not in (4, 5, 8, 12, 14):
-            raise CalibrationError(
-                f"{path}: '{key}' has {values[key].size} coefficients, expected 4, 5, 8, 12 or 14 — {fix}"
-            )
+            raise bad(f"'{key}' has {values[key].size} coefficients, expected 4, 5, 8, 12 or 14 — {fix}", key)
         values[key] = values[key].reshape(1, -1)
     for key, mat in values.items():
         if not np.all(np.isfinite(mat)):
-            raise CalibrationError(f"{path}: '{key}' contains NaN or infinity — {fix}")
-    if not (width >= 16 and height >= 16):
-        raise CalibrationError(
-            f"{path}: image_width/image_height missing or invalid ({width:g}x{height:g}) — {fix}"
-        )
-    if abs(np.linalg.det(values["R"]) - 1.0) > 1e-3:
-        raise CalibrationError(f"{path}: 'R' is not a rotation matrix (det ≠ 1) — {fix}")
-    size = (int(width), int(height))
+            raise bad(f"'{key}' contains NaN or infinity — {fix}", key)
+    for key in ("image_width", "image_height"):
+        side = scalars[key]
+        if not (16 <= side <= MAX_IMAGE_SIDE_PX and side == int(side)):
+            raise bad(f"'{key}' = {side:g} px is missing or invalid (expected a whole number "
+                      f"16…{MAX_IMAGE_SIDE_PX}) — {fix}", key)
+    for key in ("rms_stereo", "epipolar_error_px"):  # absent keys read as 0: fine
+        if not (math.isfinite(scalars[key]) and scalars[key] >= 0):
+            raise bad(f"'{key}' = {scalars[key]:g} px must be a finite value ≥ 0 — {fix}", key)
+    for key in ("M1", "M2"):
+        problem = _camera_matrix_problem(values[key])
+        if problem:
+            raise bad(f"'{key}' {problem}; a camera matrix is [[fx, s, cx], [0, fy, cy], [0, 0, 1]] "
+                      f"with fx, fy > 0 (px) — {fix}", key)
+    R = values["R"]
+    if abs(np.linalg.det(R) - 1.0) > 1e-3:
+        raise bad(f"'R' is not a rotation matrix (det ≠ 1) — {fix}", "R")
+    if np.max(np.abs(R @ R.T - np.eye(3))) > 1e-3:
+        raise bad(f"'R' is not a rotation matrix (R·Rᵀ ≠ I) — {fix}", "R")
+    baseline_m = float(np.linalg.norm(values["T"]))
+    if baseline_m < MIN_BASELINE_M:
+        raise bad(f"'T': baseline |T| = {baseline_m:g} m — the two cameras cannot be the same; "
+                  f"recalibrate (run `deskarm calibrate`) or pick another file", "T")
+    size = (int(scalars["image_width"]), int(scalars["image_height"]))
     notes: list[str] = []
     if expected_size is not None and tuple(expected_size) != size:
         ew, eh = expected_size
         if not math.isclose(ew / eh, size[0] / size[1], rel_tol=1e-3):
-            raise CalibrationError(
-                f"{path}: calibrated for {size[0]}x{size[1]} but the cameras deliver {ew}x{eh} "
+            raise bad(
+                f"calibrated for {size[0]}x{size[1]} but the cameras deliver {ew}x{eh} "
                 f"(another aspect ratio) — calibrate at {ew}x{eh} or set the cameras to {size[0]}x{size[1]}"
             )
         scale = ew / size[0]
@@ -206,11 +247,28 @@ def load_calibration(
             values[key] = m
         notes.append(f"intrinsics rescaled from {size[0]}x{size[1]} to {ew}x{eh}")
         size = (int(ew), int(eh))
-    return StereoCalibration(
-        M1=values["M1"], D1=values["D1"], M2=values["M2"], D2=values["D2"], R=values["R"],
-        T=values["T"].reshape(3, 1), image_size=size, rms_stereo=float(rms),
-        epipolar_error_px=float(epi), source=str(path), notes=tuple(notes),
-    )
+    try:
+        return StereoCalibration(
+            M1=values["M1"], D1=values["D1"], M2=values["M2"], D2=values["D2"], R=values["R"],
+            T=values["T"].reshape(3, 1), image_size=size, rms_stereo=float(scalars["rms_stereo"]),
+            epipolar_error_px=float(scalars["epipolar_error_px"]), source=str(path), notes=tuple(notes),
+        )
+    except (cv2.error, np.linalg.LinAlgError) as exc:  # a combination the checks above did not foresee
+        last = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise bad(f"rectification failed ({last}) — {fix}") from None
+
+
+def _camera_matrix_problem(m: np.ndarray) -> str:
+    """Why ``m`` is not a usable 3x3 camera matrix, or "" (it is upper triangular, fx, fy > 0)."""
+    if not np.any(m):
+        return "is all zeros (singular)"
+    fx, fy = float(m[0, 0]), float(m[1, 1])
+    if not (fx > 0 and fy > 0):
+        return f"has fx = {fx:g}, fy = {fy:g} (both must be > 0; singular or mirrored)"
+    if not (np.allclose(m[2], (0.0, 0.0, 1.0), atol=1e-9) and abs(m[1, 0]) <= 1e-9 * max(fx, fy)):
+        return (f"has last row [{m[2, 0]:g} {m[2, 1]:g} {m[2, 2]:g}] and [1][0] = {m[1, 0]:g} "
+                f"(expected [0 0 1] and 0)")
+    return ""
 
 
 def ros_camera_info_yaml(calib: StereoCalibration, side: str, camera_name: str = "") -> str:
@@ -246,15 +304,8 @@ def export_ros_camera_info(calib: StereoCalibration, folder: str | os.PathLike,
     The right camera's P carries Tx = −fx'·baseline (m), as ROS stereo_image_proc expects.
     """
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    out = []
-    for side, name in zip(("left", "right"), names):
-        path = folder / f"{name}.yaml"
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(ros_camera_info_yaml(calib, side, name))
-        os.replace(tmp, path)
-        out.append(path)
-    return out
+    return [write_file_atomically(folder / f"{name}.yaml", ros_camera_info_yaml(calib, side, name).encode())
+            for side, name in zip(("left", "right"), names)]
 
 
 INSTALLED_NAME = "calibration.yaml"
@@ -263,16 +314,22 @@ PREVIOUS_NAME = "calibration.previous.yaml"
 
 def installed_calibration_path() -> Path:
     """Where the app looks for the stereo calibration at start (``<config>/calibration.yaml``)."""
-    from core.paths import user_dir  # late: core.session imports this module
-
     return user_dir("config") / INSTALLED_NAME
 
 
 def install_calibration(calib: StereoCalibration,
                         extra: Optional[Mapping[str, Union[int, float, str]]] = None) -> Path:
-    """Make ``calib`` the app's calibration; the one it replaces is kept as calibration.previous.yaml."""
+    """Make ``calib`` the app's calibration; the one it replaces is kept as calibration.previous.yaml.
+
+    An OSError (read-only config folder, full disk) names the file and the fix and leaves the
+    installed calibration as it was.
+    """
     target = installed_calibration_path()
-    if target.exists():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(target, target.with_name(PREVIOUS_NAME))
+    if target.is_file():  # a copy, not a move: a failed write below must not leave none installed
+        try:
+            current = target.read_bytes()
+        except OSError as exc:  # unreadable: it cannot be kept, and replacing it may hide why
+            raise type(exc)(f"{target}: cannot keep the current calibration: {os_error_reason(exc)} — "
+                            f"make it readable for your user or remove it") from None
+        write_file_atomically(target.with_name(PREVIOUS_NAME), current)
     return save_calibration(target, calib, extra)

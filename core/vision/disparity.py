@@ -12,7 +12,6 @@ per camera pair in a TOML file under the user's config folder.
 from __future__ import annotations
 
 import math
-import os
 import threading
 import time
 from dataclasses import asdict, dataclass, fields
@@ -22,6 +21,7 @@ from typing import Optional, Sequence
 import cv2
 import numpy as np
 
+from core.paths import os_error_reason, write_file_atomically
 from core.settings import SettingsError, SgbmParams, StereoMatchParams
 from core.vision.calibration import StereoCalibration
 
@@ -325,6 +325,41 @@ def _read_presets(path: Path) -> dict:
         return tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise PresetError(f"{path}: not valid TOML ({exc}) — fix or delete the file") from None
+    except RecursionError:  # tomllib recurses once per nested array / inline table
+        raise PresetError(f"{path}: nested too deeply to be a presets file — fix or delete the file") from None
+    except OSError as exc:
+        raise PresetError(f"{path}: cannot read: {os_error_reason(exc)} — make it readable for your user, "
+                          f"or delete it") from None
+
+
+def _short(value) -> str:
+    text = repr(value) if not isinstance(value, dict) else "{…}"
+    return text if len(text) <= 40 else text[:37] + "…"
+
+
+def _pair_table(data: dict, pair_id: str, path: Path) -> dict:
+    """The table of one camera pair ({} if it has none), its structure checked down to each
+    preset: PresetError naming the file and the key where a table (or a name) was expected."""
+    def wrong(key: str, value, expected: str) -> PresetError:
+        return PresetError(f"{path}: {key} = {_short(value)} must be {expected} — fix or delete the file")
+
+    pairs = data.get("pairs", {})
+    if not isinstance(pairs, dict):
+        raise wrong("pairs", pairs, 'a table of camera pairs ([pairs."<pair>".presets.<name>])')
+    pair = pairs.get(pair_id, {})
+    key = f'pairs."{pair_id}"'
+    if not isinstance(pair, dict):
+        raise wrong(key, pair, f"a table ([{key}.presets.<name>])")
+    active = pair.get("active")
+    if active is not None and not isinstance(active, str):
+        raise wrong(key + ".active", active, "a preset name (a string)")
+    presets = pair.get("presets", {})
+    if not isinstance(presets, dict):
+        raise wrong(key + ".presets", presets, f"a table of presets ([{key}.presets.<name>])")
+    for name, preset in presets.items():
+        if not isinstance(preset, dict):
+            raise wrong(f"{key}.presets.{name}", preset, f"a table ([{key}.presets.{name}.sgbm] and .matcher)")
+    return pair
 
 
 def _build(cls, values, where: str, path: Path):
@@ -338,12 +373,15 @@ def _build(cls, values, where: str, path: Path):
         return cls(**values)
     except (SettingsError, TypeError) as exc:
         raise PresetError(f"{path}: [{where}] {exc}") from None
+    except RecursionError:  # a value nested hundreds of tables deep (dotted keys parse without recursing)
+        raise PresetError(f"{path}: [{where}] a value is nested too deeply — fix or delete the file") from None
 
 
 def list_presets(pair_id: str, path: Optional[Path] = None) -> list[str]:
-    """Names of the presets stored for a camera pair."""
+    """Names of the presets stored for a camera pair; PresetError (naming file and key) when the
+    file is unreadable or the pair's part of it has the wrong structure."""
     path = Path(path) if path else presets_path()
-    pair = _read_presets(path).get("pairs", {}).get(pair_id, {})
+    pair = _pair_table(_read_presets(path), pair_id, path)
     return sorted(pair.get("presets", {}))
 
 
@@ -352,7 +390,7 @@ def load_preset(pair_id: str, name: Optional[str] = None,
     """The preset ``name`` (default: the pair's last saved one) of a camera pair, or None if the
     pair has none; PresetError (naming file, table and key) when the stored values are invalid."""
     path = Path(path) if path else presets_path()
-    pair = _read_presets(path).get("pairs", {}).get(pair_id)
+    pair = _pair_table(_read_presets(path), pair_id, path)
     if not pair:
         return None
     name = name or pair.get("active") or "default"
@@ -367,39 +405,37 @@ def load_preset(pair_id: str, name: Optional[str] = None,
 
 def save_preset(pair_id: str, sgbm: SgbmParams, match: StereoMatchParams = StereoMatchParams(),
                 name: str = "default", path: Optional[Path] = None) -> Path:
-    """Store a preset for a camera pair (and make it the pair's active one); returns the file."""
+    """Store a preset for a camera pair (and make it the pair's active one); returns the file.
+
+    PresetError when the file cannot be read or its structure is wrong (it is not overwritten);
+    an OSError naming the file and the fix when it cannot be written (read-only folder)."""
     import tomli_w
 
     if not name or not all(c.isalnum() or c in "-_ " for c in name):
         raise PresetError(f"preset name {name!r}: use letters, digits, '-', '_' or spaces")
     path = Path(path) if path else presets_path()
     data = _read_presets(path)
-    pair = data.setdefault("pairs", {}).setdefault(pair_id, {})
+    pair = _pair_table(data, pair_id, path)
+    data.setdefault("pairs", {})[pair_id] = pair
     pair["active"] = name
     pair.setdefault("presets", {})[name] = {"sgbm": asdict(sgbm), "matcher": asdict(match)}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(tomli_w.dumps(data).encode())
-    os.replace(tmp, path)
-    return path
+    return write_file_atomically(path, tomli_w.dumps(data).encode())
 
 
 def delete_preset(pair_id: str, name: str, path: Optional[Path] = None) -> bool:
-    """Remove a preset; True if it existed."""
+    """Remove a preset; True if it existed (errors as for ``save_preset``)."""
     import tomli_w
 
     path = Path(path) if path else presets_path()
     data = _read_presets(path)
-    presets = data.get("pairs", {}).get(pair_id, {}).get("presets", {})
+    pair = _pair_table(data, pair_id, path)
+    presets = pair.get("presets", {})
     if name not in presets:
         return False
     del presets[name]
-    pair = data["pairs"][pair_id]
     if pair.get("active") == name:
         pair["active"] = sorted(presets)[0] if presets else "default"
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(tomli_w.dumps(data).encode())
-    os.replace(tmp, path)
+    write_file_atomically(path, tomli_w.dumps(data).encode())
     return True
 
 
