@@ -8,8 +8,8 @@ from PySide6 import QtCore, QtWidgets
 from widgets._style import TOUCH_PX, touch_button
 
 PROTOCOLS = (
-    ("v2", "deskarm firmware (v2: feedback, watchdog, e-stop)"),
-    ("v1", "original firmware (v1: no feedback)"),
+    ("v2", "deskarm firmware (v2, checked) — recommended"),
+    ("v1", "original firmware (v1: no checksum)"),
 )
 
 
