@@ -5,20 +5,80 @@ camera rate, perception on each frame, targeting, and the control step that writ
 motor bridge when the session's ``ControlSchedule`` says so (at once for each new goal, else
 on the 50 Hz tick). With ``fast`` it runs on a simulated clock as fast as the machine
 allows. No Qt is imported here.
+
+A serial board that goes away does not end the run: the bridge is reconnected with the same
+backoff as the window's bridge worker (``core.devices.reconnect.Reconnector``), and the summary
+counts the losses (``bridge_disconnects``) and the time without a link (``disconnected_s``).
+Per-frame samples are kept in bounded reservoirs, so a soak of any length has a flat memory.
 """
 from __future__ import annotations
 
 import json
 import math
+import random
 import sys
 import time
+from collections import deque
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import Callable, Iterable, Optional, Self
 
 import numpy as np
 
+from core.devices.bridge import BridgeError
+from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
+
+MAX_SAMPLES = 20_000  # samples kept per metric: a p95 from this many is within ~0.3 percentile points
+RECENT_PERCEPTION = 60  # frames behind the status line's perception figure (2 s at 30 fps)
+RECENT_ERROR_3D = 120  # marker observations behind the status line's 3D error figure
+
+
+def check_duration(duration_s) -> float:
+    """``duration_s`` as a float, or ValueError naming ``--duration`` and the valid range."""
+    try:
+        value = float(duration_s)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"--duration {duration_s!r} is outside the valid range: a finite number of "
+                         "seconds > 0 (e.g. --duration 10)")
+    return value
+
+
+class Reservoir(list):
+    """At most ``capacity`` samples: every one until full, then a uniform random sample of all
+    appended so far (reservoir sampling, algorithm R, with a fixed seed: runs are repeatable).
+
+    A list, so whatever reads the samples (numpy, json, the bench) works unchanged, but bounded:
+    percentiles stay accurate on a run of any length while memory stays flat. ``seen`` counts
+    every sample appended; the order is not the order of arrival once full.
+    """
+
+    def __init__(self, capacity: int = MAX_SAMPLES, seed: int = 0):
+        super().__init__()
+        if capacity < 1:
+            raise ValueError(f"capacity = {capacity}: expected ≥ 1")
+        self.capacity = int(capacity)
+        self.seen = 0
+        self._rng = random.Random(seed)
+
+    def append(self, value) -> None:
+        self.seen += 1
+        if len(self) < self.capacity:
+            super().append(value)
+            return
+        j = self._rng.randrange(self.seen)
+        if j < self.capacity:
+            self[j] = value
+
+    def extend(self, values: Iterable) -> None:
+        for v in values:
+            self.append(v)
+
+    def __iadd__(self, values: Iterable) -> Self:
+        self.extend(values)
+        return self
 
 
 def percentile(values, q: float) -> Optional[float]:
@@ -34,10 +94,13 @@ class RunMetrics:
 
     scenario: str
     frames: int = 0
-    perception_ms: list = field(default_factory=list)
-    latency_ms: list = field(default_factory=list)
-    error_3d_mm: list = field(default_factory=list)
-    reach_error_mm: list = field(default_factory=list)
+    # per-frame samples, bounded (MAX_SAMPLES each, read at creation); one seed per metric
+    perception_ms: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 1))  # computed frames (ms)
+    latency_ms: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 2))  # frame -> bytes (ms)
+    error_3d_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 3))  # vs ground truth (mm)
+    reach_error_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 4))  # tip vs aim (mm)
+    recent_perception_ms: deque = field(default_factory=lambda: deque(maxlen=RECENT_PERCEPTION), repr=False)
+    recent_error_3d_mm: deque = field(default_factory=lambda: deque(maxlen=RECENT_ERROR_3D), repr=False)
     visible_pairs: int = 0  # (frame, marker) pairs visible in both views by ground truth
     seen_pairs: int = 0  # of those, how many perception found
     commands_sent: int = 0
@@ -49,6 +112,8 @@ class RunMetrics:
     frames_reused: int = 0  # frames the source repeated, whose perception answer was reused
     event_steps: int = 0  # control steps run at once for a new goal
     tick_steps: int = 0  # control steps run on the 50 Hz tick
+    bridge_disconnects: int = 0  # times the bridge's device went away during the run
+    disconnected_s: float = 0.0  # total time without a bridge link (s)
 
     def summary(self) -> dict:
         def r(v, nd=3):
@@ -74,6 +139,8 @@ class RunMetrics:
             "control_steps_event": self.event_steps,
             "control_steps_tick": self.tick_steps,
             "duration_s": r(self.sim_s, 2),
+            "bridge_disconnects": self.bridge_disconnects,
+            "disconnected_s": r(self.disconnected_s),
         }
 
 
@@ -101,7 +168,7 @@ class HeadlessRunner:
 
     def __init__(self, session: DeskSession, duration_s: float, status: Callable[[str], None] | None = None):
         self.s = session
-        self.duration_s = float(duration_s)
+        self.duration_s = check_duration(duration_s)
         self.status = status or (lambda line: None)
         self.metrics = RunMetrics(scenario=session.options.scenario)
         self._goal = None
@@ -110,11 +177,14 @@ class HeadlessRunner:
         self._target_since = 0.0
         self._ball = None  # cups: the ball found in the last computed frame
         self.schedule = None
+        # the window's backoff (0.5 s … 5 s), on the session's clock (simulated with --fast)
+        self.reconnector = Reconnector(now=session.clock.now)
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
         clock = s.clock
-        s.bridge.connect()
+        s.bridge.connect()  # a board missing at the start is an error (one line), not a wait
+        self.reconnector.ensure(s.bridge)
         schedule = self.schedule = s.control_schedule()
         state = s.bridge.joint_state()
         if state is not None and hasattr(s.camera, "set_arm_points"):
@@ -158,6 +228,8 @@ class HeadlessRunner:
             m.wall_s = time.perf_counter() - wall0
             m.sim_s = clock.now() - t0
             m.event_steps, m.tick_steps = schedule.event_steps, schedule.tick_steps
+            m.bridge_disconnects = self.reconnector.disconnects
+            m.disconnected_s = self.reconnector.disconnected_s()
             s.close()
         return m
 
@@ -165,16 +237,35 @@ class HeadlessRunner:
         s, m = self.s, self.metrics
         now = s.clock.now()
         self.schedule.ran(now)
-        state = s.bridge.joint_state()
-        q_now = state.q if state is not None else s.controller.last.q if s.controller.last else None
+        try:
+            state = s.bridge.joint_state() if self.reconnector.ensure(s.bridge) else None
+        except BridgeError as exc:
+            self.reconnector.lost(s.bridge, exc)  # leaves it disconnected
+            state = None
+        if not s.bridge.is_connected:
+            pending_latency.clear()  # frames while the board is away lead to no bytes
+            return
+        # no joint state yet (v1 has none before its first command): start from the last
+        # command, else from home, as the window's control worker does
+        if state is not None:
+            q_now = state.q
+        elif s.controller.last is not None:
+            q_now = s.controller.last.q
+        else:
+            q_now = s.profile.q_home
         w0 = time.perf_counter()
-        cmd = None if q_now is None else s.controller.step(self._goal, q_now, now)
+        cmd = s.controller.step(self._goal, q_now, now)
         if cmd is None:
             # nothing to write (no goal yet, e-stopped): these frames led to no bytes, they have
             # no frame -> bytes latency (counted before, they showed the wait for the first goal)
             pending_latency.clear()
             return
-        sent = s.bridge.send(cmd)
+        try:
+            sent = s.bridge.send(cmd)
+        except BridgeError as exc:  # the board went away: reconnect on a later step
+            self.reconnector.lost(s.bridge, exc)
+            pending_latency.clear()
+            return
         ctrl_wall = time.perf_counter() - w0
         m.commands_sent += 1
         if command_outside_limits(sent, cmd, s.bridge, s.profile):
@@ -186,7 +277,11 @@ class HeadlessRunner:
             for frame_t, processing in pending_latency:
                 m.latency_ms.append((s.clock.now() - frame_t + processing + (ctrl_wall if s.clock.simulated else 0.0)) * 1e3)
             pending_latency.clear()
-        state = s.bridge.joint_state()
+        try:
+            state = s.bridge.joint_state()
+        except BridgeError as exc:
+            self.reconnector.lost(s.bridge, exc)
+            return
         if hasattr(s.camera, "set_arm_points") and state is not None:
             s.camera.set_arm_points(s.kinematics.chain_points(state.q))
         self._score_reach(cmd, state)
@@ -198,6 +293,7 @@ class HeadlessRunner:
             m.frames_reused += 1
         else:
             m.perception_ms.append(result.timings_ms["total"])
+            m.recent_perception_ms.append(result.timings_ms["total"])
         m.full_searches += int(result.full_frame_search)
         if frame.truth is None:
             return
@@ -208,7 +304,9 @@ class HeadlessRunner:
             obs = result.marker(obj.marker_id)
             if obs is not None and obs.found:
                 m.seen_pairs += 1
-                m.error_3d_mm.append(float(np.linalg.norm(np.subtract(obs.base_p_centre, obj.base_p_centre))) * 1e3)
+                error_mm = float(np.linalg.norm(np.subtract(obs.base_p_centre, obj.base_p_centre))) * 1e3
+                m.error_3d_mm.append(error_mm)
+                m.recent_error_3d_mm.append(error_mm)
 
     def _score_reach(self, cmd, state) -> None:
         """Tool tip vs aimed point, once the arm has settled on a goal that stopped moving."""
@@ -230,11 +328,15 @@ class HeadlessRunner:
 
     def _status_line(self, elapsed: float) -> str:
         m = self.metrics
-        p = percentile(m.perception_ms[-60:], 50)
-        e = percentile(m.error_3d_mm[-120:], 50)
+        p = percentile(m.recent_perception_ms, 50)
+        e = percentile(m.recent_error_3d_mm, 50)
         seen = m.seen_pairs / m.visible_pairs if m.visible_pairs else 0.0
         goal = self._goal
         note = f" goal: {goal.note}" if goal is not None and goal.note else ""
+        if self.reconnector.disconnects:
+            note += f" bridge-disconnects={self.reconnector.disconnects}"
+        if not self.s.bridge.is_connected:
+            note += f" bridge: {self.s.bridge.message or 'not connected'}"
         return (
             f"t={elapsed:5.1f}s frames={m.frames} perception={p or 0:.2f}ms "
             f"3d-error={e or 0:.2f}mm seen={seen:.0%} commands={m.commands_sent} "
@@ -245,6 +347,7 @@ class HeadlessRunner:
 def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None) -> int:
     """Entry point of ``deskarm --headless``; returns the process exit code."""
     out = out or sys.stdout
+    duration_s = check_duration(duration_s)  # before any device is opened
     session = DeskSession.create(options)
     for banner in session.banners:
         print(f"deskarm: {banner}", file=out)

@@ -28,6 +28,7 @@ from typing import Generic, Optional, TypeVar
 from PySide6 import QtCore
 
 from core.devices.bridge import BridgeError
+from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
 from core.motion.schedule import rate_cap_interval
 from core.session import DeskSession
@@ -374,8 +375,7 @@ class BridgeWorker(_LoopThread):
         self.commands, self.states = commands, states
         self._version = 0
         self._last_status_t = 0.0
-        self._retry_at = 0.0
-        self._backoff = 0.5
+        self.reconnector = Reconnector()  # backoff 0.5 s … 5 s, shared with the headless runner
         self._requests_lock = threading.Lock()
         self._estop_request: Optional[bool] = None
         self._bridge_request: Optional[str] = None
@@ -400,6 +400,10 @@ class BridgeWorker(_LoopThread):
             estop, self._estop_request = self._estop_request, None
             url, self._bridge_request = self._bridge_request, None
         s = self.session
+        refusal = s.real_arm_refusal(url) if url is not None else ""
+        if refusal:  # a real arm never follows the simulated desk standing in for missing cameras
+            s.bridge.message = refusal
+            url = None
         if url is not None:
             from core.devices import open_bridge
 
@@ -421,7 +425,7 @@ class BridgeWorker(_LoopThread):
                     old.message = f"could not switch to {url}: {exc} — still on {old.url}"
                 else:
                     s.bridge = new
-                    self._retry_at, self._backoff = 0.0, 0.5
+                    self.reconnector.reset()
         if estop is not None:
             method = getattr(s.bridge, "estop" if estop else "rearm", None)
             if method is not None:  # bridges keep an e-stop made while disconnected
@@ -432,21 +436,7 @@ class BridgeWorker(_LoopThread):
 
     def _ensure_connected(self) -> bool:
         """Connect if needed, retrying with a growing delay (0.5 s … 5 s) after failures."""
-        b = self.session.bridge
-        if b.is_connected:
-            return True
-        now = time.monotonic()
-        if now < self._retry_at:
-            return False
-        try:
-            b.connect()
-            self._backoff = 0.5
-            return True
-        except BridgeError as exc:
-            b.message = f"{exc} — retrying in {self._backoff:.0f} s" if self._backoff >= 1 else str(exc)
-            self._retry_at = now + self._backoff
-            self._backoff = min(self._backoff * 2, 5.0)
-            return False
+        return self.reconnector.ensure(self.session.bridge)
 
     def loop_once(self) -> None:
         s = self.session
@@ -460,9 +450,13 @@ class BridgeWorker(_LoopThread):
             if cmd is not None:
                 try:
                     s.bridge.send(cmd)
-                except BridgeError as exc:
-                    s.bridge.message = str(exc)
-            state = s.bridge.joint_state()
+                except BridgeError as exc:  # the device went away: reconnect from the next loop
+                    self.reconnector.lost(s.bridge, exc)
+            try:
+                state = s.bridge.joint_state()
+            except BridgeError as exc:
+                self.reconnector.lost(s.bridge, exc)
+                state = None
             if state is not None:
                 self.states.put(state)
                 if hasattr(s.camera, "set_arm_points"):

@@ -165,10 +165,14 @@ def servo_deg_to_q(servo_deg: Sequence[float], profile) -> tuple[float, ...]:
 
 
 def _errno_of(exc: Exception) -> Optional[int]:
-    """The OS error number behind a pyserial/OS error (pyserial often keeps it in the text only)."""
+    """The OS error number behind a pyserial/OS error (pyserial often keeps it in the text only;
+    ``termios.error`` is not an OSError and carries it as its first argument)."""
     code = getattr(exc, "errno", None)
     if isinstance(code, int):
         return code
+    args = getattr(exc, "args", ())
+    if len(args) == 2 and isinstance(args[0], int) and not isinstance(args[0], bool):
+        return args[0]  # termios.error(errno, text)
     match = re.search(r"\[errno (\d+)\]", str(exc).lower())
     return int(match.group(1)) if match else None
 
@@ -192,9 +196,52 @@ def explain_serial_error(url: str, exc: Exception) -> str:
         return (f"{url}: write timed out — the port accepts no data (wrong port, or the board "
                 "is hung: press its reset button)")
     if (code in (errno.EIO, errno.ENXIO, errno.ENODEV, errno.EBADF) or "disconnected" in low
-            or "device reports" in low or "port not open" in low or "attempting to use a port" in low):
+            or "device reports" in low or "port not open" in low or "attempting to use a port" in low
+            or "file descriptor" in low or "closed file" in low):
         return f"{url}: the device went away (unplugged?) — plug it back in; deskarm reconnects by itself"
     return f"{url}: {text or type(exc).__name__}"
+
+
+def serial_error_types() -> tuple[type[BaseException], ...]:
+    """Every exception an open serial port may raise when its device goes away or its fd is
+    closed under a call; a bridge turns each into BridgeError.
+
+    pyserial wraps only some of them in SerialException: ``flush()`` is ``termios.tcdrain``
+    (``termios.error``, not an OSError), ``in_waiting`` an ioctl (OSError), and a port closed by
+    another thread fails on its fd with a ValueError (fd -1) or a TypeError (fd None).
+    """
+    import serial
+
+    kinds: list[type[BaseException]] = [serial.SerialException, OSError, ValueError, TypeError]
+    try:
+        import termios  # POSIX only
+    except ImportError:
+        pass
+    else:
+        kinds.append(termios.error)
+    return tuple(kinds)
+
+
+def lost_port_error(url: str, port, exc: BaseException) -> BridgeError:
+    """The BridgeError for ``exc`` raised by an open ``port``: what happened and what to do.
+
+    A port found closed after the failure (``is_open`` false or no fd) was closed under the
+    call: whatever pyserial raised then (often a TypeError), the device is gone.
+    """
+    closed = port is not None and (not getattr(port, "is_open", True) or getattr(port, "fd", 0) is None)
+    if closed and not isinstance(exc, OSError):
+        import serial
+
+        exc = serial.PortNotOpenError()
+    return BridgeError(explain_serial_error(url, exc))
+
+
+def close_quietly(port) -> None:
+    """Close a port that may already be gone; closing it is then done, never an error."""
+    try:
+        port.close()
+    except Exception:  # noqa: BLE001 - whatever a vanished device makes close() raise
+        pass
 
 
 # the pyserial URLs deskarm documents: the loopback and network serial servers (ser2net,

@@ -28,7 +28,9 @@ from core.devices.bridge import (
     V2_PREFIX,
     BridgeError,
     MotorBridge,
+    close_quietly,
     explain_serial_error,
+    lost_port_error,
 )
 from core.devices.protocol_v2 import (
     MAX_JOINTS,
@@ -254,10 +256,10 @@ class SerialV2Bridge(MotorBridge):
         try:
             self._handshake(port)
         except BridgeError:
-            _close_quietly(port)
+            close_quietly(port)
             raise
         except Exception as exc:  # SerialException, OSError, or a port that vanished meanwhile
-            _close_quietly(port)
+            close_quietly(port)
             raise BridgeError(explain_serial_error(self.port_url, exc)) from None
         stop = threading.Event()
         with self._write_lock:
@@ -285,7 +287,7 @@ class SerialV2Bridge(MotorBridge):
             self._pending = None
             self._link_down.set()
         if port is not None:
-            _close_quietly(port)
+            close_quietly(port)
         with self._cond:
             self._cond.notify_all()
 
@@ -387,21 +389,18 @@ class SerialV2Bridge(MotorBridge):
 
     def _lost(self, port, exc: Exception) -> None:
         """The link broke: mark disconnected with a plain message; connect() reopens."""
-        closed = not getattr(port, "is_open", True) or getattr(port, "fd", 0) is None
-        if closed and not isinstance(exc, OSError):
-            # closed under a blocked read: pyserial then fails with a TypeError or similar
-            import serial
-
-            exc = serial.PortNotOpenError()
+        # a port closed under a blocked read makes pyserial fail with a TypeError or similar:
+        # lost_port_error reads that as the device gone
+        message = str(lost_port_error(self.port_url, port, exc))
         with self._write_lock:
             if self._port is not port:
                 return
             self._port = None
             self._connected = False
             self._pending = None
-            self.message = explain_serial_error(self.port_url, exc)
+            self.message = message
             self._link_down.set()
-        _close_quietly(port)
+        close_quietly(port)
         with self._cond:
             self._cond.notify_all()
 
@@ -409,13 +408,14 @@ class SerialV2Bridge(MotorBridge):
         """Write under ``_write_lock`` (held by the caller); a failure loses the link."""
         try:
             port.write(data)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:  # noqa: BLE001 - every way a port fails is a lost link
+            error = lost_port_error(self.port_url, port, exc)
             self._write_lock.release()
             try:
                 self._lost(port, exc)
             finally:
                 self._write_lock.acquire()
-            raise BridgeError(explain_serial_error(self.port_url, exc)) from None
+            raise error from None
 
     def _write_ping(self, port) -> int:
         seq = self._next_seq()
@@ -681,10 +681,3 @@ class SerialV2Bridge(MotorBridge):
             commands_sent=self.commands_sent, bytes_written=self.bytes_written,
             last_write_t=self.last_write_t, last_source_t=self.last_source_t,
         )
-
-
-def _close_quietly(port) -> None:
-    try:
-        port.close()
-    except Exception:  # noqa: BLE001 - closing a port that is already gone
-        pass

@@ -39,3 +39,57 @@ def test_nothing_plugged_in_runs_on_the_simulated_desk_and_asking_for_it_works_w
         assert session.camera.kind == "sim" and session.banners[0] == "SIMULATED DESK"
     finally:
         session.close()
+
+
+def test_switching_to_a_real_arm_on_the_stand_in_simulated_desk_is_refused(board, qtbot):
+    """No webcam found ('auto'): the window shows the simulated desk; choosing a real port in
+    the bridge picker keeps the simulated arm and says why (a real arm asked for with
+    --camera sim is allowed)."""
+    from app.workers import BridgeWorker, Latest
+
+    session = DeskSession.create(SessionOptions(camera="auto"))  # no webcam on this machine
+    worker = BridgeWorker(session, Latest(), Latest())
+    try:
+        assert session.camera.kind == "sim"
+        assert "would follow markers that do not exist" in session.real_arm_refusal(f"v2:{board.path}")
+        assert session.real_arm_refusal("sim://") == ""
+        worker.request_bridge(f"v2:{board.path}")
+        worker._handle_requests()
+        assert session.bridge.url == "sim://" and "--camera sim" in session.bridge.message
+    finally:
+        session.close()
+    asked = DeskSession.create(SessionOptions(camera="sim"))
+    try:
+        assert asked.real_arm_refusal(f"v2:{board.path}") == ""
+    finally:
+        asked.close()
+
+
+def test_sessions_starting_together_do_not_collide_on_their_files():
+    """Simultaneous starts all write the simulated rig's calibration to the cache (2 of 30
+    starts failed on a fixed temporary file name)."""
+    import threading
+
+    from core.session import load_session_calibration
+
+    session = DeskSession.create(SessionOptions(camera="sim"))
+    errors, go = [], threading.Barrier(12)
+
+    def start():
+        go.wait()
+        try:
+            for _ in range(5):
+                calib, note = load_session_calibration(session.camera, None)
+                assert note == "" and calib.image_size == (640, 480)
+        except Exception as exc:  # noqa: BLE001 - collected for the assert below
+            errors.append(repr(exc))
+
+    threads = [threading.Thread(target=start) for _ in range(12)]
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout=60)
+    finally:
+        session.close()
+    assert errors == []
