@@ -46,8 +46,10 @@ class SerialV1Bridge(MotorBridge):
         self.disconnect()  # a port left half-open: close it before opening a new one
         factory = self._factory or serial.serial_for_url
         try:
+            # exclusive: a second deskarm (or a serial monitor using the lock) is told the port
+            # is busy instead of driving the same arm, as v2 does
             port = factory(self.url, baudrate=V1_BAUD, bytesize=8, parity="N", stopbits=1,
-                           timeout=0, write_timeout=1.0)
+                           timeout=0, write_timeout=1.0, exclusive=True)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise BridgeError(explain_serial_error(self.url, exc)) from None
         with self._lock:

@@ -285,3 +285,14 @@ def test_bench_rows_have_samples_and_a_missing_compiler_gives_a_row_not_a_crash(
     monkeypatch.setattr(bench_serial, "_build", lambda: (None, "make and gcc are needed"))
     (row,) = bench_serial.rows(quick=True)
     assert row["samples"] and "SKIPPED — make and gcc are needed" in row["extra"]
+
+
+def test_a_second_v1_instance_on_the_same_port_is_refused_and_the_first_keeps_driving(board, profile):
+    """v1 ports were opened without the lock v2 uses: two deskarms could drive one arm."""
+    first = open_bridge(board.path, profile)
+    second = open_bridge(board.path, profile)
+    with first:
+        with pytest.raises(BridgeError, match="port busy — close the other program using it"):
+            second.connect()
+        assert first.send(JointCommand(1, 0.0, profile.q_home)) == (0, 90, 90)
+        assert board.wait_pwm(900, 1800, 1800) == [(900, 1800, 1800)]
