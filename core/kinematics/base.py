@@ -21,6 +21,10 @@ from typing import Any, Sequence
 import numpy as np
 
 MAX_JOINTS = 16  # more joints than this in one chain is not a desk arm
+# A finite target farther than this many times the arm's reach is solved as the point in its
+# direction at that distance: squared errors of targets like 1e308 m overflow to inf (and their
+# differences to NaN), while the nearest reachable point moves by less than reach² / distance
+FAR_TARGET_FACTOR = 1e3
 
 class ProfileError(ValueError):
     """A robot profile cannot be used; the message names the file, the key and the fix."""
@@ -53,8 +57,36 @@ def format_distance(error_m: float) -> str:
     return f"{mm:.2g} mm"
 
 
+def all_finite(values: Sequence[float]) -> bool:
+    """True when every value is a finite number (no NaN, no ±inf)."""
+    return all(math.isfinite(v) for v in values)
+
+
+def bring_near(p: Sequence[float], radius_m: float) -> tuple[float, float, float]:
+    """``p`` (finite, m) moved towards the origin along its ray until no coordinate exceeds
+    ``radius_m``; unchanged when already that near. Never overflows, whatever ``p``."""
+    x, y, z = (float(v) for v in p)
+    m = max(abs(x), abs(y), abs(z))
+    if not m > radius_m:
+        return (x, y, z)
+    s = radius_m / m
+    return (x * s, y * s, z * s)
+
+
+def distance_m(a: Sequence[float], b: Sequence[float]) -> float:
+    """|a − b| (m) without intermediate overflow; inf when it exceeds the float range or is NaN."""
+    d = math.hypot(float(a[0]) - float(b[0]), float(a[1]) - float(b[1]), float(a[2]) - float(b[2]))
+    return math.inf if math.isnan(d) else d
+
+
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Rotation matrix R = Rz(yaw) · Ry(pitch) · Rx(roll) (URDF/ROS fixed-axis convention), rad."""
+    """Rotation matrix R = Rz(yaw) · Ry(pitch) · Rx(roll) (URDF/ROS fixed-axis convention), rad.
+
+    A NaN or infinite angle gives a matrix of NaN (math.cos would raise for ±inf), which the
+    solvers answer as a non-finite target.
+    """
+    if not (math.isfinite(roll) and math.isfinite(pitch) and math.isfinite(yaw)):
+        return np.full((3, 3), math.nan)
     cr, sr = math.cos(roll), math.sin(roll)
     cp, sp = math.cos(pitch), math.sin(pitch)
     cy, sy = math.cos(yaw), math.sin(yaw)

@@ -3,9 +3,13 @@
 Frame robot_base is the URDF's root link. The joints of a profile are the URDF joints between
 the root and the tip frame (``profile.geometry.tip_frame``), in chain order; every other joint
 (gripper fingers, …) is locked at its neutral value in a reduced model, so q has exactly the
-profile's joints. The model is built once and shared read-only; every thread that calls the
-solver gets its own ``pin.Data`` (and random generator) on first use, so one solver object can
-serve several workers.
+profile's joints. Mimic joints on the chain stay in the model but are not variables: Pinocchio
+derives each from the joint it mimics (``mimic_values``), so no solve moves one on its own.
+The model is built once and shared read-only; every thread that calls the solver gets its own
+``pin.Data`` (and random generator) on first use, so one solver object can serve several
+workers. A finite target absurdly far away (1e308 m) is solved as the point of its ray
+``FAR_TARGET_FACTOR`` reaches away, so no squared error overflows; distances in the answer are
+still measured to the real target.
 
 IK is damped least squares (Levenberg–Marquardt) on the tip's error, as in Pinocchio's CLIK
 example but with a full step (``DT = 1``) and an adaptive damping
@@ -40,8 +44,17 @@ from typing import TYPE_CHECKING, Optional, Sequence
 import numpy as np
 import pinocchio as pin
 
-from core.kinematics.base import IKResult, ProfileError, format_distance, pose_parts
-from core.kinematics.urdf import UrdfChain, frame_names, read_urdf_chain
+from core.kinematics.base import (
+    FAR_TARGET_FACTOR,
+    IKResult,
+    ProfileError,
+    all_finite,
+    bring_near,
+    distance_m,
+    format_distance,
+    pose_parts,
+)
+from core.kinematics.urdf import MimicJoint, UrdfChain, frame_names, read_urdf_chain
 
 if TYPE_CHECKING:
     from core.kinematics.profile import RobotProfile
@@ -77,9 +90,10 @@ _ONES6 = np.ones(6)
 
 
 def _reduced_model(chain: UrdfChain):
-    """The model with every joint off the root→tip chain locked at its neutral value (clamped)."""
+    """The model with every joint off the root→tip chain locked at its neutral value (clamped);
+    the chain's mimic joints stay (they have no coordinates of their own)."""
     model = chain.model
-    keep = set(chain.chain_joint_ids)
+    keep = set(chain.chain_joint_ids) | set(chain.mimic_joint_ids)
     lock = [j for j in range(1, model.njoints) if j not in keep]
     if not lock:
         return model
@@ -157,7 +171,11 @@ class ClikKinematics:
         self.urdf_path: str = chain.path
         self.tip_frame: str = chain.tip
         self.model = _reduced_model(chain)  # shared, read-only
-        names = tuple(self.model.names[j] for j in range(1, self.model.njoints))
+        # the variables: mimic joints have no coordinates (nq = 0), their values are derived
+        names = tuple(self.model.names[j] for j in range(1, self.model.njoints)
+                      if self.model.joints[j].nq > 0)
+        self.mimic_joints: tuple[MimicJoint, ...] = chain.mimics
+        self._mimic_index = tuple(names.index(mj.primary) for mj in chain.mimics)
         if names != profile.joint_names:
             raise ProfileError(
                 f"{profile.source or profile.name}: the profile's joints {profile.joint_names} are not"
@@ -183,6 +201,7 @@ class ClikKinematics:
         self._bank_lock = threading.Lock()
         self._bank: Optional[dict] = None
         self.reach_bound_m: float = self._reach_bound()
+        self._far_m = FAR_TARGET_FACTOR * max(self.reach_bound_m, 1.0)
 
     # ---------------------------------------------------------------------------------------
     # Per-thread state
@@ -241,11 +260,16 @@ class ClikKinematics:
             return None
         return self.frame_pose(q, self.camera_frame)
 
+    def mimic_values(self, q: Sequence[float]) -> dict[str, float]:
+        """The chain's mimic joints' values (rad or m) for ``q``: ``multiplier · q_X + offset``."""
+        return {mj.name: mj.value(float(q[i])) for mj, i in zip(self.mimic_joints, self._mimic_index)}
+
     def chain_points(self, q: Sequence[float]) -> np.ndarray:
-        """robot_base origin, each joint's origin and the tool point (m), shape (n + 2, 3)."""
+        """robot_base origin, each joint's origin (mimic joints too) and the tool point (m),
+        shape (n + m + 2, 3) for n joints and m mimic joints on the chain."""
         d, _ = self._state()
         pin.forwardKinematics(self.model, d, self._q_array(q))
-        pts = np.empty((self.n_joints + 2, 3))
+        pts = np.empty((self.model.njoints + 1, 3))
         pts[0] = 0.0
         for j in range(1, self.model.njoints):
             pts[j] = d.oMi[j].translation
@@ -289,10 +313,15 @@ class ClikKinematics:
         """An upper bound of the tool's distance from robot_base's origin (m)."""
         m = self.model
         total = 0.0
+        mimics = {mj.name: mj for mj in self.mimic_joints}
         for j in range(1, m.njoints):
             total += float(np.linalg.norm(m.jointPlacements[j].translation))
-            if m.joints[j].shortname().startswith("JointModelP"):
-                iq = m.joints[j].idx_q
+            iq = m.joints[j].idx_q
+            mj = mimics.get(m.names[j])
+            if mj is not None:  # idx_q is the mimicked joint's coordinate
+                if mj.joint_type == "prismatic":
+                    total += abs(mj.multiplier) * max(abs(self._lo[iq]), abs(self._hi[iq])) + abs(mj.offset)
+            elif m.joints[j].shortname().startswith("JointModelP"):
                 total += max(abs(self._lo[iq]), abs(self._hi[iq]))
         return total + float(np.linalg.norm(m.frames[self._fid].placement.translation))
 
@@ -392,6 +421,13 @@ class ClikKinematics:
         if not (isfinite(x) and isfinite(y) and isfinite(z)
                 and (R_des is None or all(map(isfinite, R_des.ravel().tolist())))):
             return self._result(d, q_start, p_des, R_des, w, False, 0, 0, "target is not finite")
+        p_target = p_des
+        far = self._far_m
+        if not (-far <= x <= far and -far <= y <= far and -far <= z <= far):
+            # absurdly far (1e308 m): aim at the point of its ray `far` away, where squared errors
+            # stay finite; the answer's distances are still measured to the real target
+            p_des = np.array(bring_near((x, y, z), far))
+            x, y, z = p_des.tolist()
         beyond = math.sqrt(x * x + y * y + z * z) > self.reach_bound_m  # surely out of reach
         starts: list = []
         if warm:
@@ -445,7 +481,7 @@ class ClikKinematics:
         # the best attempt stopped when its error stopped halving: polish it into the nearest point
         q, ok, it, E, _ = self._attempt(d, best_q, p_des, R_des, w, unit, polish=True)
         total_it += it
-        return self._result(d, q, p_des, R_des, w, ok, total_it, attempt, "" if ok else None)
+        return self._result(d, q, p_target, R_des, w, ok, total_it, attempt, "" if ok else None)
 
     def _attempt(self, d, q0, p_des, R_des, w, unit, polish: bool = False):
         """One damped least-squares descent from ``q0``: (q, success, iterations, error², raw).
@@ -527,6 +563,8 @@ class ClikKinematics:
                     return q, False, it, E, raw
                 history.append(E)
             else:
+                if J is None:  # the start's error is not finite (no FK there): nothing to descend
+                    return q, False, it, math.inf, raw
                 mu *= DAMP_UP
                 if mu > MU_MAX:  # no descent direction left inside the limits: a local minimum
                     return q, False, it, E, raw
@@ -587,20 +625,22 @@ class ClikKinematics:
         pin.forwardKinematics(self.model, d, q)
         M = pin.updateFramePlacement(self.model, d, self._fid)
         p = M.translation
-        finite = math.isfinite(p_des.sum())
-        dp = p_des - p
-        error_m = math.sqrt(float(dp @ dp)) if finite else math.inf
+        # sums and squares of a finite target can overflow (1e308 m): test each value, and
+        # measure with hypot
+        finite = all_finite(p_des.tolist())
+        error_m = distance_m(p_des, p) if finite else math.inf
         error_rad = 0.0
-        e = np.empty(3 if R_des is None else 6)
-        e[:3] = dp if finite else 0.0
+        e = np.zeros(3 if R_des is None else 6)
+        if finite:
+            e[:3] = p_des - p
         if R_des is not None:
-            if math.isfinite(R_des.sum()):
+            if all_finite(R_des.ravel().tolist()):
                 e[3:] = pin.log3(R_des @ M.rotation.T)
                 error_rad = math.sqrt(float(e[3:] @ e[3:]))  # |log3| is the rotation angle
             else:
-                e[3:], error_rad = 0.0, math.inf
-        ew = e * w
-        residual = math.sqrt(float(ew @ ew)) if finite else math.inf
+                error_rad = math.inf
+        residual = math.hypot(*(e * w).tolist()) if finite else math.inf
+        residual = math.inf if math.isnan(residual) else residual
         if message is None:
             if R_des is None or error_rad < EPS_ROT_RAD:
                 message = f"out of reach by {format_distance(error_m)}"

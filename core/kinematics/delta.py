@@ -24,7 +24,15 @@ from typing import TYPE_CHECKING, Optional, Sequence
 
 import numpy as np
 
-from core.kinematics.base import IKResult, ProfileError, format_distance
+from core.kinematics.base import (
+    FAR_TARGET_FACTOR,
+    IKResult,
+    ProfileError,
+    all_finite,
+    bring_near,
+    distance_m,
+    format_distance,
+)
 
 if TYPE_CHECKING:  # the profile module imports this one (assembly_problem): types only
     from core.kinematics.profile import DeltaGeometry, RobotProfile
@@ -43,8 +51,15 @@ def _unit(phi: float) -> tuple[float, float, float]:
     return (math.cos(phi), math.sin(phi), 0.0)
 
 
+_NO_CENTRE = ((math.nan, math.nan, math.nan), math.nan)
+
+
 def _fk_centre(g: DeltaGeometry, u, theta: Sequence[float]):
-    """Effector centre P (tuple) and the squared half-chord z² (< 0: the arms cannot meet)."""
+    """Effector centre P (tuple) and the squared half-chord z² (< 0: the arms cannot meet).
+
+    NaN for both when the effector is undetermined: two forearm spheres share their centre or
+    the three centres lie on one line (odd geometries can get there), or a joint is not finite.
+    """
     H, R, r, L, l = g.base_height_m, g.base_radius_m, g.effector_radius_m, g.upper_arm_m, g.forearm_m
     C = []
     for (ux, uy, _), th in zip(u, theta):
@@ -53,11 +68,15 @@ def _fk_centre(g: DeltaGeometry, u, theta: Sequence[float]):
     (x1, y1, z1), (x2, y2, z2), (x3, y3, z3) = C
     ax, ay, az = x2 - x1, y2 - y1, z2 - z1
     d = math.sqrt(ax * ax + ay * ay + az * az)
+    if not d > 0.0:  # also NaN
+        return _NO_CENTRE
     ex = (ax / d, ay / d, az / d)
     bx, by, bz = x3 - x1, y3 - y1, z3 - z1
     i = ex[0] * bx + ex[1] * by + ex[2] * bz
     vx, vy, vz = bx - i * ex[0], by - i * ex[1], bz - i * ex[2]
     j = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if not j > 0.0:
+        return _NO_CENTRE
     ey = (vx / j, vy / j, vz / j)
     ez = (ex[1] * ey[2] - ex[2] * ey[1], ex[2] * ey[0] - ex[0] * ey[2], ex[0] * ey[1] - ex[1] * ey[0])
     x = 0.5 * d
@@ -86,6 +105,10 @@ def assembly_problem(g: DeltaGeometry, q_min: Sequence[float], q_max: Sequence[f
         for t2 in axes[1]:
             for t3 in axes[2]:
                 P, z2s = _fk_centre(g, u, (t1, t2, t3))
+                if math.isnan(z2s):
+                    deg = ", ".join(f"{math.degrees(t):.0f}°" for t in (t1, t2, t3))
+                    return (f"at joints ({deg}) the effector's position is undetermined (the forearm ends"
+                            " coincide or line up); change base_radius_m, effector_radius_m or the joint range")
                 if z2s < 0.0:
                     deg = ", ".join(f"{math.degrees(t):.0f}°" for t in (t1, t2, t3))
                     return (f"geometry.forearm_m = {g.forearm_m:g} is too short for this geometry and"
@@ -120,6 +143,10 @@ class DeltaKinematics:
         self._mid = tuple(0.5 * (a + b) for a, b in zip(self.q_min, self.q_max))
         self.q_home: tuple[float, ...] = self._clamp(profile.q_home)
         self._samples: Optional[np.ndarray] = None
+        # no tool point is farther from robot_base's origin than this (m)
+        self.reach_bound_m: float = (g.base_height_m + g.base_radius_m + g.effector_radius_m + g.upper_arm_m
+                                     + g.forearm_m + g.tool_offset_m)
+        self._far_m = FAR_TARGET_FACTOR * self.reach_bound_m
 
     # ---------------------------------------------------------------------------------------
     # Forward kinematics
@@ -212,8 +239,8 @@ class DeltaKinematics:
         if k == 0.0:
             return None
         c = (L * L + dx * dx + dy * dy + dz * dz - g.forearm_m ** 2) / (2.0 * L * k)
-        if c > 1.0 or c < -1.0:
-            if abs(c) > 1.0 + 1e-12:
+        if not -1.0 <= c <= 1.0:  # also NaN
+            if not abs(c) <= 1.0 + 1e-12:
                 return None
             c = max(-1.0, min(1.0, c))
         theta_d = math.atan2(-dz, rho)  # direction of shoulder → effector joint, below horizontal
@@ -225,12 +252,17 @@ class DeltaKinematics:
 
         The closed form gives the single knee-out solution; when it does not exist or leaves the
         joint limits, ``q`` is the nearest reachable configuration found (from ``q_current``,
-        home and the clamped closed form) and ``error_m`` its distance.
+        home and the clamped closed form) and ``error_m`` its distance. A non-finite target
+        gives the clamped current joints and ``error_m`` inf; an absurdly far one (1e308 m) is
+        solved like a point ``FAR_TARGET_FACTOR`` reaches away in its direction.
         """
         x, y, z = (float(v) for v in base_p_target)
         cur = self.q_home if q_current is None else self._clamp(q_current)
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
             return IKResult(cur, False, False, math.inf, self.fk_tuple(cur), (), "target is not finite")
+        near = bring_near((x, y, z), self._far_m)
+        if near != (x, y, z):
+            return self._nearest((x, y, z), cur, (), near)
         pz = z + self.tool_offset_m
         q = []
         for i in range(3):
@@ -249,13 +281,15 @@ class DeltaKinematics:
                 return IKResult(qt, True, True, err, reached, (qt,), "")
         return self._nearest((x, y, z), cur, q)
 
-    def _nearest(self, target, cur, partial) -> IKResult:
+    def _nearest(self, target, cur, partial, aim=None) -> IKResult:
         """Nearest reachable point: damped Gauss–Newton in joint space from a few starts.
 
         Joints held at a limit by the step (an active set) are dropped from the next solve, so
         the descent converges quickly along the workspace's boundary; every iterate is clamped.
+        ``aim`` (default ``target``) is the point the descent approaches: the target brought
+        near for an absurdly far one; distances are always measured to ``target``.
         """
-        t = np.array(target)
+        t = np.array(target if aim is None else aim)
         starts = [cur, self.q_home, self._mid]
         if len(partial) == 3:
             starts.insert(0, tuple(partial))
@@ -271,20 +305,29 @@ class DeltaKinematics:
                 best_q, best_e = q, E
             if best_e <= EXACT_TOL_M * EXACT_TOL_M:
                 break
-        qt = tuple(float(v) for v in best_q)
+        # no start gave a finite error (odd geometries: no pose there assembles): hold the current
+        qt = self._clamp(cur if best_q is None else best_q)
         reached = self.fk_tuple(qt)
-        err = math.dist(reached, target)
+        err = distance_m(reached, target)
         if err <= EXACT_TOL_M:
             return IKResult(qt, True, True, err, reached, (qt,), "")
         return IKResult(qt, False, False, err, reached, (), f"out of reach by {format_distance(err)}")
 
     def _descend(self, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, float]:
+        """Descent from ``q`` towards ``t``: (q, squared error), inf when ``q`` does not assemble."""
         lo, hi = np.array(self.q_min), np.array(self.q_max)
         e = t - self.fk(q)
         E = float(e @ e)
+        if not math.isfinite(E):
+            return q, math.inf
         lam = 1e-6
         for _ in range(NEAREST_IT_MAX):
-            J = self.jacobian(q)
+            try:
+                J = self.jacobian(q)
+            except np.linalg.LinAlgError:  # a singular pose (the arms' closure has no unique dP/dθ)
+                break
+            if not all_finite(J.ravel().tolist()):
+                break
             g = J.T @ e  # minus the gradient of |e|²/2: the joints want to move along g
             free = ~(((q <= lo) & (g < 0.0)) | ((q >= hi) & (g > 0.0)))  # held at a limit
             dq = np.zeros(3)
@@ -292,12 +335,15 @@ class DeltaKinematics:
                 Jf = J[:, free]
                 A = Jf.T @ Jf
                 A.flat[:: A.shape[0] + 1] += lam + DAMP_MIN
-                dq[free] = np.linalg.solve(A, g[free])
+                try:
+                    dq[free] = np.linalg.solve(A, g[free])
+                except np.linalg.LinAlgError:  # numerically singular near a singular pose: stop here
+                    break
             if not free.any() or float(np.max(np.abs(dq))) < NEAREST_EPS_STEP:
                 break  # every useful direction is blocked by a limit, or no step left
             qn = np.minimum(np.maximum(q + dq, lo), hi)
             (px, py, pz), z2s = _fk_centre(self.geometry, self._u, qn.tolist())
-            if z2s < 0.0:  # the forearms cannot meet there
+            if not z2s >= 0.0:  # the forearms cannot meet there (NaN: undetermined)
                 lam *= 10.0
                 continue
             en = t - (px, py, pz - self.tool_offset_m)
@@ -321,7 +367,8 @@ class DeltaKinematics:
         if self._samples is None:
             rng = np.random.default_rng(0)
             qs = rng.uniform(self.q_min, self.q_max, (WORKSPACE_SAMPLES, 3))
-            self._samples = np.array([self.fk_tuple(q) for q in qs])
+            pts = np.array([self.fk_tuple(q) for q in qs])
+            self._samples = pts[np.isfinite(pts).all(axis=1)]  # poses that assemble
         return self._samples
 
     def workspace_radius_range(self) -> tuple[float, float]:

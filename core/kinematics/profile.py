@@ -18,8 +18,10 @@ Kinds (``kind = ...``):
   ``tip = "tool"``), solved by closed-loop IK with Pinocchio. Its joints — the ones between
   the URDF's root and the tip frame — come from the URDF (limits in rad or m, velocities);
   optional ``[[joints]]`` entries, by name, narrow the limits or set ``home``,
-  ``max_velocity`` and ``max_acceleration``. ``umi_rtx`` and ``assistive_5dof`` are URDF
-  profiles, and ``load_profile("urdf:PATH", tip="FRAME")`` makes one from any URDF file.
+  ``max_velocity`` and ``max_acceleration``. URDF mimic joints are not profile joints: their
+  values follow the joints they mimic (``core.kinematics.urdf``). ``umi_rtx`` and
+  ``assistive_5dof`` are URDF profiles, and ``load_profile("urdf:PATH", tip="FRAME")`` makes
+  one from any URDF file.
 
 A joint is either a hobby servo (``servo_min_deg``/``servo_max_deg``/``offset_deg``/
 ``direction``: its limits follow from the servo range) or a plain joint with ``lower``/``upper``
@@ -708,6 +710,12 @@ def _urdf_joints(rd: _Reader, chain, overrides: Any) -> tuple[JointSpec, ...]:
             raise rd.fail(f"joints[{i}] must be a table ([[joints]]), got {_type_name(table)}")
         rd.no_unknown_keys(table, _URDF_JOINT_KEYS, path)
         name = rd.string(table, "name", path)
+        mimic = next((m for m in chain.mimics if m.name == name), None)
+        if mimic is not None:
+            raise rd.fail(
+                f"joints[{i}].name = {name!r} is a mimic joint (q = {mimic.multiplier:g}·{mimic.primary} +"
+                f" {mimic.offset:g}), not a variable; set {mimic.primary!r} instead"
+            )
         if name not in names:
             raise rd.fail(
                 f"joints[{i}].name = {name!r} is not a joint between the URDF's root and tip"

@@ -3,7 +3,9 @@
 Runs in the kinematics/control worker and in the headless runner when ``ControlSchedule``
 (``core.motion.schedule``) says so: at once for a new goal, else on the 50 Hz tick (the servo
 PWM frame). A lost marker holds the last command; an unreachable goal sends the arm to the
-nearest reachable point and says by how much the goal is out of reach.
+nearest reachable point and says by how much the goal is out of reach. A goal with a NaN or
+infinite value is treated as invalid: the last command is held and ``ArmController.note`` says
+why (the Targeter refuses such targets already; this is the last gate before the solvers).
 """
 from __future__ import annotations
 
@@ -25,6 +27,27 @@ def goal_pose_matrix(base_p, rpy) -> "np.ndarray":
     return pose_matrix(base_p, rpy_to_matrix(*rpy))
 
 
+def goal_problem(goal: Goal) -> str:
+    """"" for a goal the solvers can take, else why not (a NaN or infinite target, orientation
+    or grip), e.g. "goal z = nan is not a finite number (m) — holding"."""
+    fields = [("goal", "xyz", goal.base_p_target, "m")]
+    if goal.orientation_rpy is not None:
+        fields.append(("goal orientation", ("roll", "pitch", "yaw"), goal.orientation_rpy, "rad"))
+    if goal.grip_m is not None:
+        fields.append(("goal", ("grip_m",), (goal.grip_m,), "m"))
+    for field, axes, values, unit in fields:
+        try:
+            vs = [float(v) for v in values]
+        except (TypeError, ValueError):
+            return f"{field} {values!r} is not {len(axes)} numbers — holding"
+        if len(vs) != len(axes):
+            return f"{field} {values!r} is not {len(axes)} numbers — holding"
+        for axis, v in zip(axes, vs):
+            if not math.isfinite(v):
+                return f"{field} {axis} = {v!r} is not a finite number ({unit}) — holding"
+    return ""
+
+
 class ArmController:
     """Solves IK for each goal and limits each joint's step per tick."""
 
@@ -38,22 +61,27 @@ class ArmController:
         self.last: Optional[JointCommand] = None
         self.last_ik = None
         self.armed = True  # False after an e-stop: refuse new commands until re-armed
+        self.note = ""  # why the last step held instead of solving ("" when it solved)
         self._seq = SequenceCounter()
 
     def step(self, goal: Optional[Goal], q_now: Sequence[float], t: float) -> Optional[JointCommand]:
         """One control tick. ``q_now`` is the measured (or last commanded) joint state.
 
-        Returns None when there is nothing to send (no goal yet, or disarmed).
+        Returns None when there is nothing to send (no goal yet, or disarmed). An invalid goal
+        — a lost marker, or a NaN or infinite value in it — holds the last command (None before
+        the first one) and ``note`` says why.
         """
         if not self.armed:
             return None
-        q_ref = self.last.q if self.last is not None else tuple(q_now)
         if goal is None or not goal.valid:
-            if self.last is None:
-                return None
-            # hold: repeat the last command (servos keep their pulse; the link stays alive)
-            return JointCommand(self._seq.next(), t, self.last.q, goal.source_t if goal else None,
-                                self.last.reachable, self.last.reach_error_m, self.last.base_p_target)
+            self.note = (goal.note or "goal invalid — holding") if goal is not None else "no goal yet"
+            return self._hold(goal, t)
+        problem = goal_problem(goal)
+        if problem:
+            self.note = problem
+            return self._hold(goal, t)
+        self.note = ""
+        q_ref = self.last.q if self.last is not None else tuple(q_now)
         if goal.orientation_rpy is not None and hasattr(self.kinematics, "ik_pose"):
             ik = self.kinematics.ik_pose(goal_pose_matrix(goal.base_p_target, goal.orientation_rpy), q_ref)
         else:
@@ -69,6 +97,13 @@ class ArmController:
         )
         self.last = cmd
         return cmd
+
+    def _hold(self, goal: Optional[Goal], t: float) -> Optional[JointCommand]:
+        """Repeat the last command (servos keep their pulse; the link stays alive); None before one."""
+        if self.last is None:
+            return None
+        return JointCommand(self._seq.next(), t, self.last.q, goal.source_t if goal else None,
+                            self.last.reachable, self.last.reach_error_m, self.last.base_p_target)
 
     def step_allowance(self, t: float) -> tuple[float, ...]:
         """How far each joint may move in a step at ``t``: its speed limit × the time since the

@@ -11,8 +11,11 @@ where and by how much; the original system used fixed durations and never checke
 
 Every waypoint is solved before the arm moves: an unreachable pick or drop point fails the
 task at once, cleanly (the command holds the start pose), with the distance out of reach.
-Commands are always within the joint limits. No Qt here; the caller steps the task at the
-control rate with the clock's time and the bridge's joint state.
+Commands are always within the joint limits and finite: NaN or infinite points, grips and
+start joints are refused with a ValueError naming the field when the task is made, a tick
+with a non-finite time holds the command, and non-finite measured joints never arrive (on the
+timeout that follows, such a joint keeps its last command). No Qt here; the caller steps the
+task at the control rate with the clock's time and the bridge's joint state.
 """
 from __future__ import annotations
 
@@ -24,6 +27,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from core.kinematics.base import format_distance
+from core.motion.safety import require_finite, require_finite_number
 from core.motion.trajectory import PointToPoint, joint_move
 
 
@@ -67,9 +71,11 @@ class GrabParams:
 
     def __post_init__(self) -> None:
         for name in ("base_p_pick", "base_p_drop"):
-            p = getattr(self, name)
-            if len(p) != 3 or not all(math.isfinite(float(v)) for v in p):
-                raise ValueError(f"grab.{name} = {p!r} must be 3 finite numbers (x, y, z in m)")
+            object.__setattr__(self, name, require_finite(f"grab.{name}", getattr(self, name), "m"))
+        for name in ("gripper_open_m", "gripper_closed_m"):
+            v = getattr(self, name)
+            if v is not None and not require_finite_number(f"grab.{name}", v, "m") >= 0.0:
+                raise ValueError(f"grab.{name} = {v!r} must be ≥ 0 m (an opening per finger)")
         for name, lo, hi, open_lo in (("hover_m", 0.0, 0.5, False), ("tolerance_m", 0.0, 0.1, True),
                                       ("gripper_tolerance_m", 0.0, 0.05, True), ("timeout_s", 0.0, 600.0, True),
                                       ("speed_scale", 0.0, 1.0, True)):
@@ -112,8 +118,11 @@ class GrabTask:
         self.open_m = params.gripper_open_m if params.gripper_open_m is not None else (g.max_m if g else DEFAULT_GRIPPER_OPEN_M)
         self.closed_m = params.gripper_closed_m if params.gripper_closed_m is not None else (g.min_m if g else 0.0)
         lo, hi = profile.q_min, profile.q_max
-        self.q_start = tuple(min(max(float(v), a), b) for v, a, b in zip(q_start, lo, hi))
-        self.gripper_cmd = float(gripper_start_m) if gripper_start_m is not None else self.closed_m
+        # the moves are planned from here: a made-up start (NaN → mid-range) could jump the arm
+        q_start = require_finite("q_start", q_start, "rad or m", tuple(profile.joint_names))
+        self.q_start = tuple(min(max(v, a), b) for v, a, b in zip(q_start, lo, hi))
+        self.gripper_cmd = (require_finite_number("gripper_start_m", gripper_start_m, "m")
+                            if gripper_start_m is not None else self.closed_m)
         self.phase = GrabPhase.APPROACH
         self.message = ""
         self.history: list[tuple[float, GrabPhase]] = []  # (time entered, phase)
@@ -150,7 +159,7 @@ class GrabTask:
         for phase, target, grip, what in spec:
             target_t = (float(target[0]), float(target[1]), float(target[2]))
             res = self.kin.ik(target_t, q)
-            if not res.success:
+            if not res.success or not all(map(math.isfinite, res.q)):
                 coords = ", ".join(f"{c:.3f}" for c in target_t)
                 self._fail(f"the {what} ({coords}) m is out of reach by {format_distance(res.error_m)}"
                            " — nothing was moved")
@@ -192,9 +201,10 @@ class GrabTask:
         """One control tick at time ``t`` (s) with the arm's measured joints (and gripper, if known).
 
         Without a measured gripper, the gripper counts as arrived once its move's time at the
-        gripper's speed has passed (open loop).
+        gripper's speed has passed (open loop). A non-finite ``t`` holds the command; measured
+        joints that are not finite never count as arrived.
         """
-        if self.phase in (GrabPhase.DONE, GrabPhase.FAILED):
+        if self.phase in (GrabPhase.DONE, GrabPhase.FAILED) or not math.isfinite(t):
             return self._command(t)
         wp = self._waypoints[self._index]
         move = self._move
@@ -205,8 +215,14 @@ class GrabTask:
         self.gripper_cmd = self._grip_from + (wp.gripper_m - self._grip_from) * frac
         planned = max(move.duration, self._grip_time)
         if elapsed >= planned:
-            tool = np.asarray(self.kin.fk(q_measured), dtype=float)
-            dist = float(np.linalg.norm(tool - np.asarray(wp.base_p)))
+            measured = all(map(math.isfinite, (float(v) for v in q_measured)))
+            if measured:
+                tool = np.asarray(self.kin.fk(q_measured), dtype=float)
+                dist = float(np.linalg.norm(tool - np.asarray(wp.base_p)))
+            else:
+                dist = math.inf
+            if math.isnan(dist):  # FK undefined there (a delta that does not assemble)
+                dist = math.inf
             if gripper_measured_m is None:
                 grip_ok = True
             else:
@@ -220,11 +236,15 @@ class GrabTask:
                     self.message = "done"
                 return self._command(t)
             if elapsed > planned + self.params.timeout_s:
-                why = f"tool {format_distance(dist)} from its target"
+                why = f"tool {format_distance(dist)} from its target" if measured else "measured joints not finite"
                 if not grip_ok:
                     why += f", gripper at {gripper_measured_m * 1000:.1f} mm instead of {wp.gripper_m * 1000:.1f} mm"
                 self._fail(f"timeout in phase {wp.phase.value!r} after {elapsed:.1f} s: {why}")
+                # stop where the arm is; a joint measured as NaN/inf keeps its last command
                 lo, hi = self.profile.q_min, self.profile.q_max
-                self._q_cmd = tuple(min(max(float(v), a), b) for v, a, b in zip(q_measured, lo, hi))
+                self._q_cmd = tuple(
+                    min(max(float(v), a), b) if math.isfinite(float(v)) else c
+                    for v, c, a, b in zip(q_measured, self._q_cmd, lo, hi)
+                )
                 self.history.append((t, GrabPhase.FAILED))
         return self._command(t)

@@ -14,7 +14,9 @@ Nothing non-finite ever comes out of these functions. The rules, the same everyw
 - ±inf is an ordinary (very large) number: it clamps to the limit on its side, or moves by at
   most one step towards it.
 
-The firmware clamps again; these are the first line, not the only one.
+The firmware clamps again; these are the first line, not the only one. Targets are checked
+earlier still, where they enter (``require_finite``): a NaN or infinite target is refused with
+an error naming the field instead of being turned into some joint value downstream.
 """
 from __future__ import annotations
 
@@ -29,6 +31,35 @@ from core.kinematics.profile import (
 )
 
 LIMIT_TOL_RAD = 1e-9  # is_within_limits accepts this much rounding beyond a limit
+
+
+def require_finite(field: str, values: Sequence[float], unit: str, axes: Sequence[str] = "xyz") -> tuple[float, ...]:
+    """``values`` as a float tuple, one per name in ``axes``; ValueError naming the field otherwise.
+
+    The message names the field and the axis, e.g. "manual target z = nan must be a finite
+    number (m)". Used where targets enter (Targeter setters, grab points).
+    """
+    try:
+        out = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise ValueError(f"{field} = {values!r} must be {len(axes)} numbers ({', '.join(axes)} in {unit})") from None
+    if len(out) != len(axes):
+        raise ValueError(f"{field} = {values!r} must be {len(axes)} numbers ({', '.join(axes)} in {unit})")
+    for axis, v in zip(axes, out):
+        if not math.isfinite(v):
+            raise ValueError(f"{field} {axis} = {v!r} must be a finite number ({unit})")
+    return out
+
+
+def require_finite_number(field: str, value: float, unit: str) -> float:
+    """``value`` as a float; ValueError ("grip_m = inf must be a finite number (m)") otherwise."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{field} = {value!r} must be a number ({unit})") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{field} = {v!r} must be a finite number ({unit})")
+    return v
 
 
 def _check_len(q: Sequence[float], profile: RobotProfile) -> None:

@@ -17,7 +17,10 @@ import cv2
 import numpy as np
 
 from core.messages import Goal, PerceptionResult, SequenceCounter, TargetMode, as_point
+from core.motion.safety import require_finite, require_finite_number
 from core.settings import LissajousParams, check_range
+
+_RPY = ("roll", "pitch", "yaw")
 
 
 @dataclass(frozen=True)
@@ -64,6 +67,14 @@ class BallFinder:
         return ((cx + 0.5) / self.scale - 0.5, (cy + 0.5) / self.scale - 0.5)
 
 
+def _checked_lissajous(params: LissajousParams) -> LissajousParams:
+    """``params`` when every field is finite, else ValueError naming it (LissajousParams checks
+    its ranges, but a NaN slipped in by ``object.__setattr__`` or a look-alike would not be)."""
+    for name, unit in (("centre", "m"), ("amplitude", "m"), ("frequency_hz", "Hz"), ("phase_rad", "rad")):
+        require_finite(f"lissajous.{name}", getattr(params, name), unit)
+    return params
+
+
 def _user_input(setter):
     """A Targeter setter: after it, tell the listeners (the control loop steps at once)."""
 
@@ -83,6 +94,10 @@ class Targeter:
     Thread-safe: setters may be called from the GUI thread while ``update`` runs in a worker.
     ``listeners`` (callables without arguments) are called after every setter, in the caller's
     thread: the control worker uses it to run its step at once for a user's new goal.
+
+    Setters refuse a NaN or infinite value with a ValueError naming the field (the state and
+    the listeners are left alone); ``update`` turns a non-finite marker position or Lissajous
+    point into an invalid goal (hold) with a note saying why.
     """
 
     def __init__(self, clock, mode: TargetMode = TargetMode.MANUAL,
@@ -92,11 +107,11 @@ class Targeter:
         self.clock = clock
         self._lock = threading.Lock()
         self.mode = TargetMode(mode)
-        self.manual_target = as_point(manual_target)
+        self.manual_target = as_point(require_finite("manual target", manual_target, "m"))
         self.manual_rpy: Optional[tuple[float, float, float]] = None  # 6-DOF arms: tool orientation
         self.manual_grip_m: Optional[float] = None
         self.follow_id = int(follow_id)
-        self.lissajous = lissajous or LissajousParams()
+        self.lissajous = _checked_lissajous(lissajous or LissajousParams())
         self.lissajous_running = False
         self._lissajous_t0 = 0.0
         self._lissajous_paused_at = 0.0
@@ -114,16 +129,27 @@ class Targeter:
 
     @_user_input
     def set_manual_target(self, base_p) -> None:
+        """Manual target (x, y, z in m, robot_base); ValueError for a NaN or infinite value."""
+        p = as_point(require_finite("manual target", base_p, "m"))
         with self._lock:
-            self.manual_target = as_point(base_p)
+            self.manual_target = p
 
     @_user_input
     def set_manual_pose(self, base_p, rpy=None, grip_m: Optional[float] = None) -> None:
-        """Manual target with a tool orientation (roll, pitch, yaw in rad) and a grip (m)."""
+        """Manual target with a tool orientation (roll, pitch, yaw in rad) and a grip (m).
+
+        ValueError naming the field for a NaN or infinite value, or a negative grip; nothing
+        changes then.
+        """
+        p = as_point(require_finite("manual target", base_p, "m"))
+        r = None if rpy is None else as_point(require_finite("manual orientation", rpy, "rad", _RPY))
+        g = None if grip_m is None else require_finite_number("manual grip_m", grip_m, "m")
+        if g is not None and g < 0.0:
+            raise ValueError(f"manual grip_m = {g!r} must be ≥ 0 m (an opening per finger)")
         with self._lock:
-            self.manual_target = as_point(base_p)
-            self.manual_rpy = None if rpy is None else as_point(rpy)
-            self.manual_grip_m = None if grip_m is None else float(grip_m)
+            self.manual_target = p
+            self.manual_rpy = r
+            self.manual_grip_m = g
 
     @_user_input
     def set_follow_id(self, marker_id: int) -> None:
@@ -132,6 +158,8 @@ class Targeter:
 
     @_user_input
     def set_lissajous(self, params: LissajousParams) -> None:
+        """The Lissajous curve; ValueError naming the field for a NaN or infinite parameter."""
+        params = _checked_lissajous(params)
         with self._lock:
             self.lissajous = params
 
@@ -161,7 +189,12 @@ class Targeter:
                 return Goal(self._seq.next(), t, self.manual_target, mode, source_t,
                             orientation_rpy=self.manual_rpy, grip_m=self.manual_grip_m)
             if mode is TargetMode.LISSAJOUS:
-                p = self.lissajous.point(self.lissajous_time())
+                t_curve = self.lissajous_time()
+                # math.sin raises for an infinite time: check before evaluating the curve
+                p = self.lissajous.point(t_curve) if math.isfinite(t_curve) else (math.nan,) * 3
+                if not all(map(math.isfinite, p)):
+                    return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                                note=f"Lissajous point at t = {t_curve!r} s is not finite — holding")
                 return Goal(self._seq.next(), t, as_point(p), mode, source_t)
             if mode is TargetMode.FOLLOW:
                 return self._goal_for_marker(self.follow_id, result, mode, t, source_t)
@@ -177,8 +210,11 @@ class Targeter:
         if obs is None or not obs.found or obs.base_p_centre is None:
             return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
                         note=f"marker {marker_id} lost — holding")
-        return Goal(self._seq.next(), t, self.pointing.apply(obs.base_p_centre), mode, source_t,
-                    note=f"marker {marker_id}")
+        p = self.pointing.apply(obs.base_p_centre)
+        if not all(map(math.isfinite, p)):  # a degenerate triangulation
+            return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                        note=f"marker {marker_id} position is not finite — holding")
+        return Goal(self._seq.next(), t, p, mode, source_t, note=f"marker {marker_id}")
 
     def _update_ball_cup(self, result: Optional[PerceptionResult]) -> None:
         """When the ball is visible, the cup nearest to it (in the left image) hides it next."""

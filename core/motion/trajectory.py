@@ -21,6 +21,7 @@ from typing import Callable, Iterator, Optional, Sequence
 
 import numpy as np
 
+from core.motion.safety import require_finite
 from core.settings import LissajousParams
 
 STREAM_RATE_HZ = 50.0  # the control loop's rate (the servo PWM frame)
@@ -100,7 +101,9 @@ class PointToPoint:
         self.shape = shape
 
     def sample(self, t: float) -> Setpoint:
-        """Position, velocity and acceleration at time ``t`` (s)."""
+        """Position, velocity and acceleration at time ``t`` (s); ValueError for a NaN time."""
+        if math.isnan(t):
+            raise ValueError("t = nan s: a trajectory is sampled at a number")
         T = self.duration
         if T <= 0.0 or t >= T:
             zero = (0.0,) * len(self.goal)
@@ -188,12 +191,15 @@ def follow_cartesian(
 
     Each point is solved by warm-started IK from the previous command (branch continuity), and
     each joint moves at most ``velocity_limit / rate_hz`` per tick; the joint limits always
-    hold. An unreachable point sends the arm to the nearest reachable one and says so.
+    hold. An unreachable point sends the arm to the nearest reachable one and says so; a NaN or
+    infinite one holds the joints (the solvers answer it with the current joints). ValueError
+    for a non-finite ``q_start``.
     """
     dt = 1.0 / rate_hz
     v = profile.velocity_limits
     lo, hi = profile.q_min, profile.q_max
-    q = tuple(min(max(float(x), a), b) for x, a, b in zip(q_start, lo, hi))
+    q_start = require_finite("q_start", q_start, "rad or m", tuple(profile.joint_names))
+    q = tuple(min(max(x, a), b) for x, a, b in zip(q_start, lo, hi))
     n = int(math.floor(duration / dt + 1e-9))
     for k in range(n + 1):
         t = k * dt

@@ -112,7 +112,9 @@ def test_no_goal_sequence_commands_a_joint_outside_its_limits(targets, q_start):
     c = ArmController(PROFILE, KIN)
     for k, p in enumerate(targets):
         cmd = c.step(Goal(k, k * 0.02, p, TargetMode.MANUAL), q_start, k * 0.02)
-        assert cmd is not None
+        if cmd is None:  # a NaN/inf goal before any command is invalid: there is nothing to hold yet
+            assert c.last is None and not all(math.isfinite(v) for v in p)
+            continue
         assert all(math.isfinite(v) for v in cmd.q)
         assert is_within_limits(cmd.q, PROFILE)
 
