@@ -163,7 +163,10 @@ def load_session_calibration(camera: CameraSource, path: Optional[str]) -> tuple
     own = camera.calibration()
     if own is not None and path is None:
         cache = user_dir("cache") / "sim_rig_calibration.yaml"
-        save_calibration(cache, own)
+        try:
+            save_calibration(cache, own)
+        except OSError as exc:  # a read-only cache folder: the rig's own calibration, unsaved
+            return own, f"{exc} (the simulated rig's calibration is used without its file)"
         return load_calibration(cache, expected_size=own.image_size), ""
     candidate = Path(path) if path else user_dir("config") / "calibration.yaml"
     size = camera_image_size(camera)

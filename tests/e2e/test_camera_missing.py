@@ -93,3 +93,18 @@ def test_sessions_starting_together_do_not_collide_on_their_files():
     finally:
         session.close()
     assert errors == []
+
+
+def test_a_read_only_cache_folder_does_not_stop_the_simulated_desk(monkeypatch):
+    import core.session as session_module
+
+    def refuse(path, calib, *args, **kwargs):
+        raise PermissionError(13, f"{path}: cannot write: permission denied — make it writable")
+
+    monkeypatch.setattr(session_module, "save_calibration", refuse)
+    session = DeskSession.create(SessionOptions(camera="sim"))
+    try:
+        assert session.calibration.image_size == (640, 480)
+        assert any("permission denied" in b for b in session.banners)
+    finally:
+        session.close()
