@@ -247,12 +247,7 @@ class HeadlessRunner:
             return
         # no joint state yet (v1 has none before its first command): start from the last
         # command, else from home, as the window's control worker does
-        if state is not None:
-            q_now = state.q
-        elif s.controller.last is not None:
-            q_now = s.controller.last.q
-        else:
-            q_now = s.profile.q_home
+        q_now = s.controller.start_pose(state)
         w0 = time.perf_counter()
         cmd = s.controller.step(self._goal, q_now, now)
         if cmd is None:

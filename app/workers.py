@@ -348,12 +348,7 @@ class ControlWorker(_LoopThread):
         result = self.results.peek()
         goal = s.targeter.update(result)
         state = self.states.peek()
-        if state is not None:
-            q_now = state.q
-        elif s.controller.last is not None:
-            q_now = s.controller.last.q
-        else:
-            q_now = s.profile.q_home
+        q_now = s.controller.start_pose(state)
         cmd = s.controller.step(goal, q_now, now)
         if cmd is not None:
             self.commands.put(cmd)

@@ -105,6 +105,15 @@ class ArmController:
         return JointCommand(self._seq.next(), t, self.last.q, goal.source_t if goal else None,
                             self.last.reachable, self.last.reach_error_m, self.last.base_p_target)
 
+    def start_pose(self, state) -> tuple[float, ...]:
+        """The joints a step starts from: the measured (or echoed) JointState, else the last
+        command (v1 has no state before its first one), else the profile's home pose."""
+        if state is not None:
+            return tuple(state.q)
+        if self.last is not None:
+            return self.last.q
+        return tuple(self.profile.q_home)
+
     def step_allowance(self, t: float) -> tuple[float, ...]:
         """How far each joint may move in a step at ``t``: its speed limit × the time since the
         previous step, at most one tick period (a step that comes sooner than the tick — a new

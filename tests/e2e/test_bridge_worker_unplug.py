@@ -10,14 +10,12 @@ import errno
 import termios
 import threading
 
-import pytest
 import serial
-from PySide6 import QtCore
 
 from app.workers import BridgeWorker, Latest
 from core.devices.serial_v1 import SerialV1Bridge
 from core.messages import JointCommand
-from core.session import DeskSession, SessionOptions
+from test_bridge_worker import StatusLog, session  # noqa: F401  (the fixture and the log)
 
 
 class Port:
@@ -60,23 +58,6 @@ class Plug:
             raise serial.SerialException(errno.ENOENT, f"could not open port {url}: [Errno 2] No such file or directory")
         self.ports.append(Port())
         return self.ports[-1]
-
-
-class StatusLog(QtCore.QObject):
-    def __init__(self):
-        super().__init__()
-        self.items = []
-
-    @QtCore.Slot(object)
-    def add(self, status):
-        self.items.append(status)
-
-
-@pytest.fixture
-def session():
-    s = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
-    yield s
-    s.close()
 
 
 def test_a_v1_board_unplugged_mid_write_is_shown_and_reconnected_and_the_worker_lives(qtbot, session):
