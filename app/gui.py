@@ -413,7 +413,10 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(object)
     def on_manual_target(self, p) -> None:
-        self.session.targeter.set_manual_target(p)
+        try:
+            self.session.targeter.set_manual_target(p)
+        except ValueError as exc:  # a non-finite target is refused where it enters: say so
+            self._show_note(str(exc))
 
     @QtCore.Slot(int)
     def on_follow_id(self, marker_id: int) -> None:
@@ -621,6 +624,9 @@ class MainWindow(QtWidgets.QMainWindow):
         obs = self._result.marker(marker_id)
         if obs is None or obs.base_p_centre is None:
             return
+        if not all(math.isfinite(v) for v in obs.base_p_centre):
+            self._show_note(f"marker {marker_id} has no 3D position yet — it must be seen by both cameras")
+            return
         self.target_panel.set_mode(TargetMode.MANUAL.value)  # does not emit: tell the targeter
         self.on_mode_changed(TargetMode.MANUAL.value)
         self.target_panel.set_manual_target(self.session.targeter.pointing.apply(obs.base_p_centre))
@@ -646,7 +652,10 @@ class MainWindow(QtWidgets.QMainWindow):
         """A pose typed in the Pose tab becomes the manual target, orientation included."""
         self.target_panel.set_mode(TargetMode.MANUAL.value)
         self.on_mode_changed(TargetMode.MANUAL.value)
-        self.session.targeter.set_manual_pose(pose.base_p, pose.rpy, pose.grip_m)
+        try:
+            self.session.targeter.set_manual_pose(pose.base_p, pose.rpy, pose.grip_m)
+        except ValueError as exc:
+            self._show_note(str(exc))
 
     def _twins(self):
         return [t for t in (self.twin, self.twin3d) if t is not None]

@@ -315,3 +315,10 @@ def test_the_latency_shown_is_of_the_first_command_carrying_a_frame_not_of_the_t
     clock_now["t"] = 10.036  # the next frame's command, 3 ms after that frame
     window.on_command(replace(cmd, seq=3, source_t=10.033), goal)
     assert window._latency_ms == pytest.approx(3.0)
+
+
+def test_a_non_finite_manual_target_is_refused_with_a_note_not_a_traceback(window):
+    before = window.session.targeter.manual_target
+    window.on_manual_target((float("nan"), 0.1, 0.1))
+    assert window.session.targeter.manual_target == before
+    assert "must be a finite number" in window._note
