@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import math
 import sys
 
+from app.headless import check_duration
 from core.devices.bridge import BRIDGE_CHOICES
 from core.session import SCENARIOS, SessionOptions
 from core.vision.cameras import CAMERA_CHOICES
@@ -77,8 +77,7 @@ def main(argv: list[str] | None = None) -> int:
         size = parse_size(args.size)
         if not (1.0 <= args.fps <= 240.0):
             raise ValueError(f"--fps {args.fps:g} is outside 1…240")
-        if not math.isfinite(args.duration) or args.duration <= 0:
-            raise ValueError(f"--duration {args.duration:g} must be a finite, positive number of seconds (e.g. 10)")
+        check_duration(args.duration)
     except ValueError as exc:  # ProfileError and SettingsError are ValueErrors too
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2

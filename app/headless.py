@@ -20,7 +20,7 @@ import sys
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Optional, Self
+from typing import Callable, Iterable, Optional
 
 import numpy as np
 
@@ -76,7 +76,7 @@ class Reservoir(list):
         for v in values:
             self.append(v)
 
-    def __iadd__(self, values: Iterable) -> Self:
+    def __iadd__(self, values: Iterable) -> "Reservoir":
         self.extend(values)
         return self
 
@@ -175,7 +175,6 @@ class HeadlessRunner:
         self._cmd_source_wall: dict[int, float] = {}
         self._last_target = None
         self._target_since = 0.0
-        self._ball = None  # cups: the ball found in the last computed frame
         self.schedule = None
         # the window's backoff (0.5 s … 5 s), on the session's clock (simulated with --fast)
         self.reconnector = Reconnector(now=session.clock.now)
@@ -210,9 +209,7 @@ class HeadlessRunner:
                 if s.targeter.mode is TargetMode.CUPS:
                     from dataclasses import replace
 
-                    ball = self._ball if result.reused else s.ball_finder.find(frame.left)
-                    self._ball = ball
-                    result = replace(result, ball_left_px=ball)
+                    result = replace(result, ball_left_px=s.ball_finder.find(frame.left))
                 self._goal = s.targeter.update(result)
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))

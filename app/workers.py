@@ -142,8 +142,6 @@ class PerceptionWorker(_LoopThread):
         self._health_drifted = False
         self._health_sent_t = 0.0
         self.on_result = None  # called (in this thread) after each result is published
-        self._ball = None  # cups: the ball found in the last computed frame
-        self._last_disparity = None  # ((computer, params, match), map) of the last computed frame
 
     def set_disparity_enabled(self, enabled: bool) -> None:
         if enabled:
@@ -270,19 +268,13 @@ class PerceptionWorker(_LoopThread):
         self._emit_controls()
         result = s.perception.process(frame)
         extra = {}
-        if self._want_disparity.is_set():
-            key = (self.disparity, self.disparity.params, self.disparity.match)
-            if result.reused and self._last_disparity is not None and self._last_disparity[0] == key:
-                extra["disparity"] = self._last_disparity[1]  # the same images: the same map
-            else:
-                t0 = time.perf_counter()
-                extra["disparity"] = self.disparity.compute(frame.left, frame.right)
-                extra["timings_ms"] = dict(result.timings_ms, disparity=(time.perf_counter() - t0) * 1e3)
-                self._last_disparity = (key, extra["disparity"])
-        if s.targeter.mode is TargetMode.CUPS:
+        if self._want_disparity.is_set():  # a repeated frame gets the computer's last map back
+            t0 = time.perf_counter()
+            extra["disparity"] = self.disparity.compute(frame.left, frame.right)
             if not result.reused:
-                self._ball = s.ball_finder.find(frame.left)
-            extra["ball_left_px"] = self._ball
+                extra["timings_ms"] = dict(result.timings_ms, disparity=(time.perf_counter() - t0) * 1e3)
+        if s.targeter.mode is TargetMode.CUPS:  # likewise the ball finder's last answer
+            extra["ball_left_px"] = s.ball_finder.find(frame.left)
         if extra:
             result = replace(result, **extra)
         if not result.reused:

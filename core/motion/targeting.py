@@ -50,9 +50,20 @@ class BallFinder:
     def __init__(self, scale: float = 0.25, min_area_px: float = 3.0):
         self.scale = scale
         self.min_area_px = min_area_px
+        self._last: tuple = (None, None)  # (image, answer): a repeated frame's very array
 
     def find(self, bgr: np.ndarray) -> Optional[tuple[float, float]]:
-        """Pixel centre (x, y) of the largest red blob in full-image coordinates, or None."""
+        """Pixel centre (x, y) of the largest red blob in full-image coordinates, or None.
+
+        The very array of the previous call (a source re-delivering a still frame) gets the
+        previous answer without looking again."""
+        if bgr is self._last[0]:
+            return self._last[1]
+        found = self._find(bgr)
+        self._last = (bgr, found)
+        return found
+
+    def _find(self, bgr: np.ndarray) -> Optional[tuple[float, float]]:
         small = cv2.resize(bgr, None, fx=self.scale, fy=self.scale, interpolation=cv2.INTER_AREA)
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
         # red wraps around hue 0: two bands

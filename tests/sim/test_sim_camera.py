@@ -117,3 +117,24 @@ def test_the_crop_detector_keeps_the_full_frames_minimum_marker_size_in_pixels()
     assert not tracked.full_frame_search
     for a, b in zip(full.markers, tracked.markers):
         assert b.found and np.allclose(a.base_p_centre, b.base_p_centre, atol=2e-3)
+
+
+def test_the_ball_finder_and_the_disparity_computer_reuse_their_answer_for_a_repeated_frame(monkeypatch):
+    from core.motion.targeting import BallFinder
+    from core.settings import SgbmParams
+    from core.vision.disparity import DisparityComputer
+
+    cam = sim_camera("static")
+    first, again = cam.read(), cam.read()
+    assert again.repeated
+    finder, looks = BallFinder(), []
+    real_find = finder._find
+    monkeypatch.setattr(finder, "_find", lambda bgr: looks.append(bgr) or real_find(bgr))
+    assert finder.find(first.left) == finder.find(again.left) and len(looks) == 1
+    finder.find(first.left.copy())  # equal pixels in another array: looked at again
+    assert len(looks) == 2
+    disparity = DisparityComputer(cam.calibration())
+    d1 = disparity.compute(first.left, first.right)
+    assert disparity.compute(again.left, again.right) is d1
+    disparity.set_params(SgbmParams(num_disparities=32))  # other matchers: computed again
+    assert disparity.compute(again.left, again.right) is not d1
