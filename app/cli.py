@@ -91,9 +91,12 @@ def main(argv: list[str] | None = None) -> int:
             from app.gui import take_screenshot
 
             return take_screenshot(options, args.screenshot, args.after, size)
+        from app.startup import show_splash
+
+        splash = show_splash()  # on screen before OpenCV, Pinocchio and the cameras load
         from app.gui import run_window
 
-        return run_window(options, size)
+        return run_window(options, size, splash)
     except KeyboardInterrupt:
         return 130
     except (OSError, RuntimeError, ValueError) as exc:

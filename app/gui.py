@@ -17,12 +17,14 @@ from __future__ import annotations
 import math
 import sys
 import time
+from dataclasses import replace
 from typing import Optional
 
 import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.calibration_worker import CalibrationController
+from app.startup import make_app
 from app.workers import WorkerSet
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
@@ -41,7 +43,8 @@ from widgets.bridge_picker import BridgePicker
 from widgets.camera_controls import CameraSettingsPanel
 from widgets.camera_view import CameraView, MarkerOverlay
 from widgets.device_controls import DeviceControlsPanel
-from widgets.estop import EStopButton
+from widgets.estop import EStopButton, RearmButton
+from widgets.help_dialog import HelpDialog
 from widgets.joint_readout import JointReadout
 from widgets.pose_panel import PosePanel, pose_panel_applies, pose_target_from_matrix
 from widgets.status import Banner, StatusBarItems
@@ -53,6 +56,8 @@ MIN_REDRAW_GAP_MS = 5  # and leave the event loop at least this long between the
 STATUS_INTERVAL_MS = 500  # fps / latency / bridge in the status bar: readable at 2 Hz, not at 30
 NOTE_SHOW_MS = 15_000  # how long a one-off note (e.g. "new calibration in use") stays in the banner
 LEGEND_TICKS = 5
+TWIN_MIN_HEIGHT_PX = 120
+FIT_DELAY_MS = 150  # after a show/move/resize: the window manager has framed the window by then
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -86,9 +91,15 @@ class MainWindow(QtWidgets.QMainWindow):
         self.depth_sample = None  # DepthSample at the probe, for tests and the readout
         self._dirty = False
         self.calibration_controller: Optional[CalibrationController] = None
+        self.help_dialog: Optional[HelpDialog] = None
+        self._estop_dialogs: list = []  # open dialogs that show the e-stop state (set_estop)
         self._note_timer = QtCore.QTimer(self)
         self._note_timer.setSingleShot(True)
         self._note_timer.timeout.connect(self._clear_note)
+        self._fit_timer = QtCore.QTimer(self)  # after show, moves and resizes: stay on the screen
+        self._fit_timer.setSingleShot(True)
+        self._fit_timer.setInterval(FIT_DELAY_MS)
+        self._fit_timer.timeout.connect(self.fit_to_screen)
         self._build()
         self.workers = WorkerSet(session, self)
         p = self.workers.perception
@@ -139,15 +150,28 @@ class MainWindow(QtWidgets.QMainWindow):
         outer.setContentsMargins(4, 4, 4, 4)
         outer.setSpacing(4)
         top = QtWidgets.QHBoxLayout()
+        top.setSpacing(4)
+        # what the user needs right after an action, never below the fold: the banner (camera,
+        # e-stop, notes) and the target state ("on target", "out of reach by 81 mm")
+        messages = QtWidgets.QVBoxLayout()
+        messages.setSpacing(2)
         self.banner = Banner()
-        top.addWidget(self.banner, 1)
+        messages.addWidget(self.banner)
+        self.target_panel = TargetPanel()
+        self.target_status = self.target_panel.detach_reach_label()
+        messages.addWidget(self.target_status)
+        top.addLayout(messages, 1)
         self.estop_button = EStopButton()
-        self.estop_button.sigEstopChanged.connect(self.on_estop)
+        self.estop_button.sigStopRequested.connect(self.on_stop_requested)
         top.addWidget(self.estop_button)
+        self.rearm_button = RearmButton()  # only while stopped; acts after a 1 s hold
+        self.rearm_button.sigHeld.connect(self.on_rearm_requested)
+        self.rearm_button.hide()
+        top.addWidget(self.rearm_button)
+        self.menu_button = self._build_menu_button()
+        top.addWidget(self.menu_button)
         outer.addLayout(top)
-        stop_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Escape), self)
-        stop_shortcut.setContext(QtCore.Qt.ShortcutContext.ApplicationShortcut)
-        stop_shortcut.activated.connect(self.estop_button.engage)
+        self._add_shortcuts()
         self._restore_banner()
 
         self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
@@ -168,6 +192,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.twin.configure_for(s.profile, s.kinematics)
         self.twin3d = None  # created on first use: the first GL widget re-composites the window
         self.twin_stack = QtWidgets.QStackedWidget()
+        # the 3D twin's GL view asks for ~500 px: never let it grow the window off an 800x480 screen
+        self.twin_stack.setSizePolicy(QtWidgets.QSizePolicy.Policy.Preferred, QtWidgets.QSizePolicy.Policy.Ignored)
+        self.twin_stack.setMinimumHeight(TWIN_MIN_HEIGHT_PX)
         self.twin_stack.addWidget(self.twin)
         left_layout.addWidget(self.twin_stack, 2)
         self.view_3d_button = touch_button("3D twin", checkable=True)  # in the Robot tab
@@ -181,8 +208,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.tabs = QtWidgets.QTabWidget()
         self.tabs.setDocumentMode(True)
         self.tabs.tabBar().setExpanding(True)
-        self.tabs.setStyleSheet("QTabBar::tab { min-height: 40px; min-width: 60px; padding: 0 8px; }")
-        self.target_panel = TargetPanel()
+        self.tabs.setStyleSheet(f"QTabBar::tab {{ min-height: {TOUCH_PX}px; min-width: 60px; padding: 0 8px; }}")
         self.camera_page = self._build_camera_page()
         self.stereo_panel = StereoPanel()
         self.sgbm_panel = self.stereo_panel.sgbm  # the block-matching trackbars
@@ -193,7 +219,12 @@ class MainWindow(QtWidgets.QMainWindow):
         if pose_panel_applies(s.profile):  # 6-DOF arms: X/Y/Z, yaw/pitch/roll, grip
             self.pose_panel = PosePanel()
             self.pose_panel.configure_for(s.profile, s.kinematics)
-            self.pose_panel.set_pose(pose_target_from_matrix(s.kinematics.fk_pose(s.profile.q_home)))
+            home = pose_target_from_matrix(s.kinematics.fk_pose(s.profile.q_home))
+            # one target state: the Pose tab starts at the targeter's manual target, with the
+            # home orientation, and the Target tab's X/Y/Z sliders get the same ranges
+            self.pose_panel.set_pose(replace(home, base_p=tuple(s.targeter.manual_target)))
+            lo_hi = [self.pose_panel.spins[k] for k in "xyz"]
+            self.target_panel.set_manual_ranges(*(v / 100.0 for sp in lo_hi for v in (sp.minimum(), sp.maximum())))
             self.pose_panel.sigPoseChanged.connect(self.on_pose_target)
         self.bridge_picker = BridgePicker(list_port_choices)
         self.bridge_picker.sigConnectRequested.connect(self.on_bridge_requested)
@@ -244,6 +275,67 @@ class MainWindow(QtWidgets.QMainWindow):
         sp.sigPresetLoadRequested.connect(self.on_preset_load)
         sp.sigPresetDeleteRequested.connect(self.on_preset_delete)
         self._update_preview()
+
+    def _build_menu_button(self) -> QtWidgets.QToolButton:
+        """☰: full screen, help, quit — the way out and in on a kiosk with no window manager."""
+        button = QtWidgets.QToolButton()
+        button.setText("☰")
+        button.setToolTip("Menu: full screen, help, quit")
+        button.setMinimumSize(TOUCH_PX + 8, TOUCH_PX + 8)
+        button.setStyleSheet("QToolButton { font-size: 20pt; } QToolButton::menu-indicator { image: none; }")
+        button.setPopupMode(QtWidgets.QToolButton.ToolButtonPopupMode.InstantPopup)
+        menu = QtWidgets.QMenu(button)
+        menu.setStyleSheet(f"QMenu::item {{ min-height: {TOUCH_PX}px; padding: 0 28px 0 16px; }}")
+        self.fullscreen_action = menu.addAction("Full screen", self.toggle_fullscreen)
+        self.fullscreen_action.setShortcut(QtGui.QKeySequence("F11"))
+        self.fullscreen_action.setCheckable(True)
+        self.help_action = menu.addAction("Help && about", self.show_help)
+        self.help_action.setShortcut(QtGui.QKeySequence("F1"))
+        menu.addSeparator()
+        self.quit_action = menu.addAction("Quit", self.close)
+        self.quit_action.setShortcut(QtGui.QKeySequence("Ctrl+Q"))
+        button.setMenu(menu)
+        return button
+
+    def _add_shortcuts(self) -> None:
+        """Esc stops from anywhere in the application; F11, F1 and Ctrl+Q act even when the
+        menu is closed (its actions' shortcuts alone would need the menu in a widget tree)."""
+        stop = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Escape), self)
+        stop.setContext(QtCore.Qt.ShortcutContext.ApplicationShortcut)
+        stop.activated.connect(self.on_stop_requested)
+        for action in (self.fullscreen_action, self.help_action, self.quit_action):
+            action.setShortcutContext(QtCore.Qt.ShortcutContext.WindowShortcut)
+            self.addAction(action)
+
+    @QtCore.Slot()
+    def toggle_fullscreen(self) -> None:
+        """F11: full screen (a kiosk) or back to the fitted window."""
+        if self.isFullScreen():
+            self.showNormal()
+            fit_to_screen(self)
+        else:
+            self.showFullScreen()
+        self.fullscreen_action.setChecked(self.isFullScreen())
+
+    @QtCore.Slot()
+    def show_help(self) -> HelpDialog:
+        """F1: version, shortcuts, reset settings — with its own STOP."""
+        if self.help_dialog is None:
+            self.help_dialog = HelpDialog(deskarm_version(), self._settings_file(), parent=self)
+            self.help_dialog.sigStopRequested.connect(self.on_stop_requested)
+            self.help_dialog.sigResetRequested.connect(self.on_reset_settings)
+            self._estop_dialogs.append(self.help_dialog)
+        self.help_dialog.set_estop(not self.session.controller.armed)
+        self.help_dialog.show()
+        self.help_dialog.raise_()
+        return self.help_dialog
+
+    def _settings_file(self) -> str:
+        return ""
+
+    @QtCore.Slot()
+    def on_reset_settings(self) -> None:
+        pass
 
     def _build_camera_page(self) -> QtWidgets.QWidget:
         """Calibrate button and state, then the image controls: the simulated camera's four
@@ -299,6 +391,20 @@ class MainWindow(QtWidgets.QMainWindow):
     def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802 (Qt override)
         super().resizeEvent(event)
         self._mark_dirty()  # narrow views show compact marker labels
+        self._fit_timer.start()
+
+    def showEvent(self, event: QtGui.QShowEvent) -> None:  # noqa: N802 (Qt override)
+        super().showEvent(event)
+        self._fit_timer.start()
+
+    def moveEvent(self, event: QtGui.QMoveEvent) -> None:  # noqa: N802 (Qt override)
+        super().moveEvent(event)  # a window manager reparenting the window moves it: its frame is known now
+        self._fit_timer.start()
+
+    @QtCore.Slot()
+    def fit_to_screen(self) -> bool:
+        """Keep all of the window (title bar and status bar included) on the screen's free area."""
+        return fit_to_screen(self)
 
     @property
     def dirty(self) -> bool:
@@ -410,13 +516,21 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_mode_changed(self, mode: str) -> None:
         self.session.targeter.set_mode(TargetMode(mode))
         self._update_preview()
+        if TargetMode(mode) is TargetMode.CUPS:
+            hint = cups_hint(self.session)
+            self.target_panel.set_cups_hint(hint)
+            if hint:
+                self._show_note(hint)
 
     @QtCore.Slot(object)
     def on_manual_target(self, p) -> None:
         try:
-            self.session.targeter.set_manual_target(p)
+            self.session.targeter.set_manual_target(p)  # keeps a manual orientation (Pose tab)
         except ValueError as exc:  # a non-finite target is refused where it enters: say so
             self._show_note(str(exc))
+            return
+        if self.pose_panel is not None:  # the Pose tab shows the same target
+            self.pose_panel.set_pose(replace(self.pose_panel.pose(), base_p=tuple(float(v) for v in p)))
 
     @QtCore.Slot(int)
     def on_follow_id(self, marker_id: int) -> None:
@@ -578,13 +692,30 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stereo_panel.set_depth_readout(readout)
         self.depth_sample = sample
 
-    @QtCore.Slot(bool)
+    @QtCore.Slot()
+    def on_stop_requested(self) -> None:
+        """STOP (button, Esc, a dialog's STOP): stop, as many times as it is asked."""
+        self.on_estop(True)
+
+    @QtCore.Slot()
+    def on_rearm_requested(self) -> None:
+        """RE-ARM held long enough: resume (only reachable while stopped)."""
+        if not self.session.controller.armed:
+            self.on_estop(False)
+
     def on_estop(self, engaged: bool) -> None:
-        """E-stop: the control worker refuses commands and the bridge stops the arm."""
+        """E-stop: the control worker refuses commands and the bridge stops the arm; every
+        view of the state (STOP, RE-ARM, banner, status bar, open dialogs) follows."""
         if engaged:
             self.session.controller.estop()
         else:
             self.session.controller.rearm()
+        self.estop_button.set_engaged(engaged)
+        self.rearm_button.setVisible(engaged)
+        if self.calibration_controller is not None:
+            self.calibration_controller.set_estop(engaged)
+        for dialog in self._estop_dialogs:
+            dialog.set_estop(engaged)
         self._restore_banner()
         self._refresh_status()  # "E-STOP" in the status bar now, not at the next refresh
         self.workers.bridge.request_estop(engaged)
@@ -596,7 +727,7 @@ class MainWindow(QtWidgets.QMainWindow):
             retry = "" if "retrying" in self._camera_error else " — retrying"
             self.banner.show_message(f"camera lost — {self._camera_error}{retry}", "error")
         elif not s.controller.armed:
-            self.banner.show_message("E-STOP — the arm is stopped. Tap RE-ARM to resume.", "error")
+            self.banner.show_message("E-STOP — the arm is stopped. Hold RE-ARM for 1 s to resume.", "error")
         elif self._health_message:
             self.banner.show_message(self._health_message, "warn")
         elif self._note:
@@ -608,7 +739,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(str)
     def on_bridge_requested(self, url: str) -> None:
-        self.bridge_picker.set_status(f"connecting to {url} …", True)
+        self.bridge_picker.set_status(f"connecting to {url} …", None)  # neutral until it answers
         self.workers.bridge.request_bridge(url)
 
     @QtCore.Slot(str)
@@ -618,7 +749,13 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(int)
     def on_marker_clicked(self, marker_id: int) -> None:
-        """Tapping a marker makes it the manual target (pointing position above it)."""
+        """Tapping a marker: in Follow mode the arm follows that marker; in any other mode it
+        becomes the manual target (pointing position above it)."""
+        if self.session.targeter.mode is TargetMode.FOLLOW:
+            self.target_panel.set_follow_id(marker_id)  # the Marker id box shows it
+            self.session.targeter.set_follow_id(marker_id)
+            self._show_note(f"following marker {marker_id}")
+            return
         if self._result is None:
             return
         obs = self._result.marker(marker_id)
@@ -649,13 +786,16 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(object)
     def on_pose_target(self, pose) -> None:
-        """A pose typed in the Pose tab becomes the manual target, orientation included."""
+        """A pose typed in the Pose tab becomes the manual target, orientation included; the
+        Target tab's X/Y/Z show it too (one target state)."""
         self.target_panel.set_mode(TargetMode.MANUAL.value)
         self.on_mode_changed(TargetMode.MANUAL.value)
         try:
             self.session.targeter.set_manual_pose(pose.base_p, pose.rpy, pose.grip_m)
         except ValueError as exc:
             self._show_note(str(exc))
+            return
+        self.target_panel.show_manual_target(pose.base_p)
 
     def _twins(self):
         return [t for t in (self.twin, self.twin3d) if t is not None]
@@ -768,8 +908,11 @@ class MainWindow(QtWidgets.QMainWindow):
         if not s.controller.armed:
             bridge_text = f"E-STOP · {bridge_text}"
         if b is not None:
+            # green only for a clean connection: a failed switch keeps the old bridge connected
+            # but carries its message ("could not switch to … — still on …"): warning colour
             self.bridge_picker.set_status(f"{b.url}: {'connected' if b.connected else 'not connected'}"
-                                          f"{' — ' + b.message if b.message else ''}", b.connected)
+                                          f"{' — ' + b.message if b.message else ''}",
+                                          b.connected and not b.message)
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
 
 
@@ -857,6 +1000,17 @@ def joint_display_values(profile, q) -> list[float]:
     return list(profile.to_display(q))
 
 
+def cups_hint(session) -> str:
+    """What the cups game needs and this desk lacks ("" when the scene can play it)."""
+    if session.is_simulated_camera and session.options.scenario != "cups":
+        return ("cups game: this simulated scene has no ball or cups — restart with "
+                "`deskarm --scenario cups` to play it")
+    if not session.is_simulated_camera:
+        return ("cups game: put a red ball on the desk in view of both cameras and cover it "
+                "with one of the marked cups; the arm points at the cup hiding it")
+    return ""
+
+
 def list_port_choices() -> list[tuple[str, str]]:
     """(label, path) for each serial port, stable names first (empty if listing fails)."""
     try:
@@ -885,34 +1039,70 @@ def lissajous_preview(params, kinematics, n: int = 400):
     return points, outside / n
 
 
-def _make_app() -> QtWidgets.QApplication:
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
-    app.setApplicationName("deskarm")
-    from pathlib import Path
-
-    icon = Path(__file__).resolve().parents[1] / "resources" / "deskarm.svg"
-    if icon.is_file():
-        app.setWindowIcon(QtGui.QIcon(str(icon)))
-    return app
+# a title bar and borders a window manager adds around the window (a guess until the window
+# manager reports its frame; fit_to_screen corrects it once the window is shown)
+FRAME_GUESS_PX = (16, 48)
 
 
-def fit_window_size(requested: tuple[int, int], available: tuple[int, int]) -> tuple[tuple[int, int], bool]:
+def fit_window_size(requested: tuple[int, int], available: tuple[int, int],
+                    frame: tuple[int, int] = FRAME_GUESS_PX) -> tuple[tuple[int, int], bool]:
     """(size, maximise) for a window asked to be ``requested`` on a screen whose free area is
-    ``available``: never larger than the screen (the STOP button must stay on it), and
-    maximised when it does not fit — a 1280x800 default on an 800x480 touch display."""
-    (rw, rh), (aw, ah) = requested, available
+    ``available``, with a window-manager frame of ``frame`` (w, h) around it: never larger than
+    the screen (STOP and the status bar must stay on it), and maximised when window plus frame
+    do not fit — a 1280x800 default on a 1280x800 screen (title bar) or an 800x480 touch display."""
+    (rw, rh), (aw, ah), (fw, fh) = requested, available, frame
     if aw <= 0 or ah <= 0:  # no screen geometry known
         return (rw, rh), False
-    fits = rw <= aw and rh <= ah
-    return (min(rw, aw), min(rh, ah)), not fits
+    fits = rw + fw <= aw and rh + fh <= ah
+    return (min(rw, aw - fw), min(rh, ah - fh)) if fits else (min(rw, aw), min(rh, ah)), not fits
 
 
-def run_window(options: SessionOptions, size: tuple[int, int]) -> int:
-    """Open the window and run until it is closed (fitted to the screen it opens on)."""
-    app = _make_app()
+def fitted_geometry(frame: QtCore.QRect, inner: QtCore.QRect, available: QtCore.QRect) -> Optional[QtCore.QRect]:
+    """Where a window must go (its inner geometry) so that its frame — title bar included —
+    lies inside ``available``; None when it already does. Pure: tested without a screen."""
+    if available.isEmpty() or available.contains(frame):
+        return None
+    left, top = inner.x() - frame.x(), inner.y() - frame.y()
+    right, bottom = frame.right() - inner.right(), frame.bottom() - inner.bottom()
+    w = min(inner.width(), available.width() - left - right)
+    h = min(inner.height(), available.height() - top - bottom)
+    x = min(max(frame.x(), available.x()), available.right() + 1 - (w + left + right))
+    y = min(max(frame.y(), available.y()), available.bottom() + 1 - (h + top + bottom))
+    return QtCore.QRect(x + left, y + top, max(1, w), max(1, h))
+
+
+def fit_to_screen(window: QtWidgets.QWidget) -> bool:
+    """Move/shrink a shown, normal (not maximised or full-screen) window so all of it, frame
+    included, is on its screen's available area. True when it had to change."""
+    screen = window.screen()
+    if screen is None or window.isFullScreen() or window.isMaximized() or not window.isVisible():
+        return False
+    target = fitted_geometry(window.frameGeometry(), window.geometry(), screen.availableGeometry())
+    if target is None:
+        return False
+    window.setGeometry(target)
+    return True
+
+
+def deskarm_version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("deskarm")
+    except Exception:  # noqa: BLE001 - a source checkout without metadata
+        return "(source checkout)"
+
+
+def run_window(options: SessionOptions, size: tuple[int, int],
+               splash: Optional[QtWidgets.QSplashScreen] = None) -> int:
+    """Open the window and run until it is closed (fitted to the screen it opens on); the
+    start-up ``splash`` (app.startup.show_splash) stays up until the window shows."""
+    app = make_app()
     try:
         session = DeskSession.create(options)
     except (OSError, RuntimeError, ValueError) as exc:
+        if splash is not None:
+            splash.close()
         QtWidgets.QMessageBox.critical(None, "deskarm could not start", str(exc))
         return 1
     window = MainWindow(session)
@@ -926,14 +1116,17 @@ def run_window(options: SessionOptions, size: tuple[int, int]) -> int:
         window.move(free.topLeft())  # where no window manager maximises (a bare X server)
         window.showMaximized()
     else:
+        window.move(free.topLeft())
         window.show()
+    if splash is not None:
+        splash.finish(window)
     window.start()
     return app.exec()
 
 
 def take_screenshot(options: SessionOptions, path: str, after_s: float, size: tuple[int, int]) -> int:
     """Run the window offscreen for ``after_s`` seconds of the scenario, save a PNG, exit."""
-    app = _make_app()
+    app = make_app()
     session = DeskSession.create(options)
     window = MainWindow(session)
     window.resize(*size)

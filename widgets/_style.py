@@ -55,10 +55,53 @@ QPushButton:checked {{
 
 
 def touch_slider(slider: QtWidgets.QWidget) -> QtWidgets.QWidget:
-    """Give a (superqt or plain) horizontal slider a tall, finger-sized handle."""
+    """Give a (superqt or plain) horizontal slider a tall, finger-sized handle, and make it
+    take the mouse wheel only when focused (see :class:`WheelWhenFocused`)."""
     slider.setStyleSheet(SLIDER_STYLE)
     slider.setMinimumHeight(TOUCH_PX)
+    wheel_only_when_focused(slider)
     return slider
+
+
+class WheelWhenFocused(QtCore.QObject):
+    """Event filter: a control under the pointer takes the wheel only when it has the focus.
+
+    Otherwise the wheel scrolls the panel around it, as the spin boxes already do — scrolling
+    a page must never change Min disparity from 0 to −45 on the way (and save it in a preset).
+    A tap or a drag on the control gives it the focus, so the wheel works once it is chosen.
+    """
+
+    def __init__(self, owner: QtWidgets.QWidget) -> None:
+        super().__init__(owner)
+        self._owner = owner
+
+    def _focused(self) -> bool:
+        focus = QtWidgets.QApplication.focusWidget()
+        return focus is not None and (focus is self._owner or self._owner.isAncestorOf(focus))
+
+    def eventFilter(self, obj: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt override)
+        if event.type() != QtCore.QEvent.Type.Wheel or self._focused():
+            return False
+        # hand the wheel to the scroll area holding the control (if any): it scrolls the page
+        parent = self._owner.parentWidget()
+        while parent is not None and not isinstance(parent, QtWidgets.QAbstractScrollArea):
+            parent = parent.parentWidget()
+        if parent is not None:
+            QtWidgets.QApplication.sendEvent(parent.verticalScrollBar(), event)
+        return True
+
+
+def wheel_only_when_focused(control: QtWidgets.QWidget) -> QtWidgets.QWidget:
+    """Install :class:`WheelWhenFocused` on ``control`` and on its sliders and spin boxes
+    (a superqt labelled slider is a slider and a spin box inside a widget)."""
+    guard = WheelWhenFocused(control)
+    control.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+    for widget in [control, *control.findChildren(QtWidgets.QAbstractSlider),
+                   *control.findChildren(QtWidgets.QAbstractSpinBox)]:
+        widget.installEventFilter(guard)
+        if widget is not control:
+            widget.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+    return control
 
 
 def touch_button(text: str, checkable: bool = False,
@@ -179,3 +222,20 @@ class Coalescer(QtCore.QObject):
 
     def _fire(self) -> None:
         self._callback()
+
+
+COMBO_STYLE = f"""
+QComboBox {{ min-height: {TOUCH_PX}px; }}
+QComboBox QAbstractItemView::item {{ min-height: {TOUCH_PX}px; padding: 0 8px; }}
+"""
+
+
+def touch_combo(combo: QtWidgets.QComboBox) -> QtWidgets.QComboBox:
+    """A drop-down whose list rows are finger-sized (≥ TOUCH_PX; Qt's default is ~20 px) and
+    that takes the mouse wheel only when focused."""
+    # the style's own popup ignores item style sheets: a plain list view honours them
+    combo.setView(QtWidgets.QListView())
+    combo.setStyleSheet(COMBO_STYLE)
+    combo.setMinimumHeight(TOUCH_PX)
+    wheel_only_when_focused(combo)
+    return combo

@@ -21,6 +21,7 @@ from widgets._style import (
     Coalescer,
     coloured_label_style,
     touch_button,
+    touch_combo,
     touch_slider,
 )
 from widgets.camera_controls import (
@@ -107,7 +108,7 @@ class StereoPanel(QtWidgets.QWidget):
         grid.setColumnStretch(1, 1)
         r = 0
         self.bm_widgets: list[QtWidgets.QWidget] = []
-        self.prefilter_combo = QtWidgets.QComboBox()
+        self.prefilter_combo = touch_combo(QtWidgets.QComboBox())
         for key in BM_PREFILTERS:
             self.prefilter_combo.addItem(PREFILTER_TEXT[key], key)
         self.prefilter_combo.setMinimumHeight(TOUCH_PX)
@@ -148,6 +149,7 @@ class StereoPanel(QtWidgets.QWidget):
         layout.addWidget(_row_label("Presets for this camera pair"))
         self.preset_combo = QtWidgets.QComboBox()
         self.preset_combo.setEditable(True)
+        touch_combo(self.preset_combo)
         self.preset_combo.setInsertPolicy(QtWidgets.QComboBox.InsertPolicy.NoInsert)
         self.preset_combo.setMinimumHeight(TOUCH_PX)
         self.preset_combo.lineEdit().setPlaceholderText("preset name")

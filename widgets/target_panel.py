@@ -12,8 +12,10 @@ from widgets._style import (
     ERROR_COLOUR,
     OK_COLOUR,
     TOUCH_PX,
+    WARN_COLOUR,
     TouchDoubleSpinBox,
     touch_button,
+    touch_combo,
     touch_scroll_area,
     touch_slider,
 )
@@ -184,7 +186,7 @@ class TargetPanel(QtWidgets.QWidget):
         layout.setContentsMargins(2, 2, 2, 2)
         row = QtWidgets.QHBoxLayout()
         row.addWidget(QtWidgets.QLabel("Marker id"))
-        self.follow_combo = QtWidgets.QComboBox()
+        self.follow_combo = touch_combo(QtWidgets.QComboBox())
         self.follow_combo.setMinimumHeight(TOUCH_PX)
         self.follow_combo.setMinimumWidth(120)
         self.follow_combo.setPlaceholderText("no marker seen")
@@ -205,6 +207,10 @@ class TargetPanel(QtWidgets.QWidget):
         grid.setContentsMargins(2, 2, 2, 2)
         grid.setHorizontalSpacing(4)
         grid.setVerticalSpacing(2)
+        # Run first: what the user taps right after choosing the mode is never below the fold
+        self.run_button = touch_button("▶ Run", checkable=True)
+        self.run_button.toggled.connect(self._on_run_toggled)
+        grid.addWidget(self.run_button, 0, 0, 1, 3)
         # Each quantity's name is a header row above its X, Y, Z boxes: three finger-sized
         # spin boxes then fit side by side in a ~360 px wide panel.
         for col, axis in enumerate("XYZ"):
@@ -213,9 +219,9 @@ class TargetPanel(QtWidgets.QWidget):
             font = header.font()
             font.setBold(True)
             header.setFont(font)
-            grid.addWidget(header, 0, col)
+            grid.addWidget(header, 1, col)
         self.lissajous_spins: list[list[TouchDoubleSpinBox]] = []
-        row = 1
+        row = 2
         for text, lo, hi, decimals, step in LISSAJOUS_ROWS:
             grid.addWidget(QtWidgets.QLabel(text), row, 0, 1, 3)
             spins = []
@@ -226,10 +232,7 @@ class TargetPanel(QtWidgets.QWidget):
                 spins.append(spin)
             self.lissajous_spins.append(spins)
             row += 2
-        self.run_button = touch_button("▶ Run", checkable=True)
-        self.run_button.toggled.connect(self._on_run_toggled)
-        grid.addWidget(self.run_button, row, 0, 1, 3)
-        grid.setRowStretch(row + 1, 1)
+        grid.setRowStretch(row, 1)
         self.set_lissajous(LissajousParams())
         return page
 
@@ -240,8 +243,18 @@ class TargetPanel(QtWidgets.QWidget):
                                 "shuffle them. The arm points at the cup hiding the ball.")
         text.setWordWrap(True)
         layout.addWidget(text)
+        self.cups_hint = QtWidgets.QLabel("")
+        self.cups_hint.setWordWrap(True)
+        self.cups_hint.setStyleSheet(f"QLabel {{ color: {WARN_COLOUR}; font-weight: bold; }}")
+        self.cups_hint.hide()
+        layout.addWidget(self.cups_hint)
         layout.addStretch(1)
         return page
+
+    def set_cups_hint(self, text: str) -> None:
+        """What the cups game needs here (e.g. a scene with a ball); "" hides it."""
+        self.cups_hint.setText(text)
+        self.cups_hint.setVisible(bool(text))
 
     # ----------------------------------------------------------------------------- mode
     @property
@@ -305,6 +318,12 @@ class TargetPanel(QtWidgets.QWidget):
         for axis, value in zip("xyz", p_m):
             self.axes[axis].set_value_cm(float(value) * M_TO_CM)
         self._emit_manual()
+
+    def show_manual_target(self, p_m: Sequence[float]) -> None:
+        """Show p (metres, clamped to the ranges) without emitting: the target was set elsewhere
+        (e.g. the Pose tab) and this panel shows the same state."""
+        for axis, value in zip("xyz", p_m):
+            self.axes[axis].set_value_cm(float(value) * M_TO_CM)
 
     def _emit_manual(self) -> None:
         self.sigManualTargetChanged.emit(self.manual_target())
@@ -403,6 +422,13 @@ class TargetPanel(QtWidgets.QWidget):
         self.run_button.setText("■ Stop" if self.run_button.isChecked() else "▶ Run")
 
     # ----------------------------------------------------------------------------- status
+    def detach_reach_label(self) -> QtWidgets.QLabel:
+        """Take the reach status out of the panel, for the owner to show where it is always in
+        view (the window's top strip); ``set_reach_status`` keeps updating it."""
+        self.layout().removeWidget(self.reach_label)
+        self.reach_label.setParent(None)
+        return self.reach_label
+
     def set_reach_status(self, text: str, ok: bool) -> None:
         """Show a reach message, e.g. "out of reach by 23 mm — going to the nearest point"."""
         if text == self.reach_label.text() and self.reach_label.property("reach_ok") == bool(ok):

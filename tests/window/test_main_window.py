@@ -105,7 +105,9 @@ def test_disparity_is_computed_only_while_shown(qtbot, window):
     ((1280, 800), (1920, 1050), ((1280, 800), False)),  # a desktop: the size asked for
     ((1280, 800), (800, 480), ((800, 480), True)),  # the Pi touch display: maximised, on screen
     ((1280, 800), (1024, 570), ((1024, 570), True)),  # a netbook with a panel
-    ((800, 480), (800, 480), ((800, 480), False)),
+    ((800, 480), (800, 480), ((800, 480), True)),  # no room for a title bar: maximised
+    ((1280, 800), (1280, 800), ((1280, 800), True)),  # the same at 1280x800 under a window manager
+    ((1280, 800), (1366, 900), ((1280, 800), False)),  # room for the frame: as asked
     ((1280, 800), (0, 0), ((1280, 800), False)),  # no screen geometry: as asked
 ])
 def test_the_window_never_opens_larger_than_the_screen(requested, available, expected):
@@ -137,7 +139,7 @@ def test_no_panel_page_is_clipped_or_scrolls_sideways_at_800x480(qtbot, robot):
 
 def test_estop_stops_commands_until_rearmed(qtbot, window):
     command_with(qtbot, window, lambda cmd, goal: True)
-    window.estop_button.engage()
+    window.estop_button.click()
     assert window.estop_button.engaged and not window.session.controller.armed
     assert "E-STOP" in window.banner.text()
     # a tick already in flight may still arrive; after that nothing is commanded
@@ -145,9 +147,46 @@ def test_estop_stops_commands_until_rearmed(qtbot, window):
     seq = window._command.seq
     qtbot.wait(300)  # a negative check needs a span of time: 15 control ticks
     assert window._command.seq == seq
-    window.estop_button.click()  # re-arm takes a deliberate tap
-    assert window.session.controller.armed
+    assert window.rearm_button.isVisible()
+    hold_to_rearm(qtbot, window)
+    assert window.session.controller.armed and not window.rearm_button.isVisible()
     command_with(qtbot, window, lambda cmd, goal: cmd.seq > seq)
+
+
+def hold_to_rearm(qtbot, window):
+    """Press RE-ARM and keep it down until it acts (its hold), then release."""
+    button = window.rearm_button
+    with qtbot.waitSignal(button.sigHeld, timeout=5000):
+        qtbot.mousePress(button, QtCore.Qt.MouseButton.LeftButton)
+    qtbot.mouseRelease(button, QtCore.Qt.MouseButton.LeftButton)
+
+
+def test_a_double_tap_on_stop_stays_stopped(qtbot, window):
+    """Two taps 150 ms apart (a panicked double tap, a bouncing touch screen) stop twice."""
+    command_with(qtbot, window, lambda cmd, goal: True)
+    qtbot.mouseClick(window.estop_button, QtCore.Qt.MouseButton.LeftButton)
+    qtbot.wait(150)
+    qtbot.mouseClick(window.estop_button, QtCore.Qt.MouseButton.LeftButton)
+    assert not window.session.controller.armed and window.estop_button.engaged
+    assert window.estop_button.text() == "STOPPED"
+    for _ in range(5):  # and any number of taps more
+        window.estop_button.click()
+    assert not window.session.controller.armed
+
+
+def test_rearm_needs_a_hold_not_a_tap(qtbot, window):
+    window.estop_button.click()
+    button = window.rearm_button
+    for _ in range(3):  # taps and a double tap on RE-ARM do nothing
+        qtbot.mouseClick(button, QtCore.Qt.MouseButton.LeftButton)
+        assert not button.holding  # released: the hold is cancelled, nothing is pending
+    assert not window.session.controller.armed
+    qtbot.mousePress(button, QtCore.Qt.MouseButton.LeftButton)
+    assert button.holding
+    qtbot.mouseRelease(button, QtCore.Qt.MouseButton.LeftButton)  # let go early
+    assert not button.holding and not window.session.controller.armed
+    hold_to_rearm(qtbot, window)
+    assert window.session.controller.armed and window.estop_button.text() == "STOP"
 
 
 def test_escape_key_engages_the_estop(qtbot, window):
