@@ -57,6 +57,7 @@ STATUS_INTERVAL_MS = 500  # fps / latency / bridge in the status bar: readable a
 NOTE_SHOW_MS = 15_000  # how long a one-off note (e.g. "new calibration in use") stays in the banner
 LEGEND_TICKS = 5
 TWIN_MIN_HEIGHT_PX = 120
+MODAL_PAUSE = "a dialog is open"  # ArmController.pause reason while a modal dialog without STOP is up
 FIT_DELAY_MS = 150  # after a show/move/resize: the window manager has framed the window by then
 
 
@@ -375,8 +376,17 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workers.start()
         self._redraw_timer.start(REDRAW_INTERVAL_MS)
         self._status_timer.start()
+        app = QtWidgets.QApplication.instance()
+        if app is not None:  # a modal dialog takes the focus when it opens
+            app.focusWindowChanged.connect(self.check_modal_dialog)
 
     def stop(self) -> None:
+        app = QtWidgets.QApplication.instance()
+        if self._running and app is not None:
+            try:
+                app.focusWindowChanged.disconnect(self.check_modal_dialog)
+            except (RuntimeError, TypeError):
+                pass
         self._running = False
         self._redraw_timer.stop()
         self._status_timer.stop()
@@ -720,6 +730,22 @@ class MainWindow(QtWidgets.QMainWindow):
         self._refresh_status()  # "E-STOP" in the status bar now, not at the next refresh
         self.workers.bridge.request_estop(engaged)
 
+    @QtCore.Slot()
+    def check_modal_dialog(self, *_args) -> None:
+        """Pause the arm while a modal dialog without its own STOP is open (a file dialog, a
+        message box): it may cover STOP on a small screen. Dialogs that carry STOP and show
+        the e-stop state (``set_estop``: the calibration wizard, help) do not pause it."""
+        modal = QtWidgets.QApplication.activeModalWidget()
+        blocking = modal is not None and modal is not self and not hasattr(modal, "set_estop")
+        controller = self.session.controller
+        if blocking == (MODAL_PAUSE in controller.paused_by):
+            return
+        if blocking:
+            controller.pause(MODAL_PAUSE)
+        else:
+            controller.resume(MODAL_PAUSE)
+        self._restore_banner()
+
     def _restore_banner(self) -> None:
         """The most important message: camera lost, e-stop, calibration drift, a note, session notes."""
         s = self.session
@@ -728,6 +754,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self.banner.show_message(f"camera lost — {self._camera_error}{retry}", "error")
         elif not s.controller.armed:
             self.banner.show_message("E-STOP — the arm is stopped. Hold RE-ARM for 1 s to resume.", "error")
+        elif s.controller.paused:
+            self.banner.show_message(f"arm paused while {', '.join(sorted(s.controller.paused_by))} — "
+                                     "it holds still until that closes", "warn")
         elif self._health_message:
             self.banner.show_message(self._health_message, "warn")
         elif self._note:
@@ -898,6 +927,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _refresh_status(self) -> None:
         """fps on the views; camera, bridge, fps and latency in the status bar (2 Hz timer)."""
         s = self.session
+        self.check_modal_dialog()
         fps = self._fps()
         r = self._result
         if r is not None and r.frame is not None:

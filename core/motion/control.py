@@ -61,6 +61,7 @@ class ArmController:
         self.last: Optional[JointCommand] = None
         self.last_ik = None
         self.armed = True  # False after an e-stop: refuse new commands until re-armed
+        self.paused_by: frozenset[str] = frozenset()  # why the arm holds still (e.g. "a dialog is open")
         self.note = ""  # why the last step held instead of solving ("" when it solved)
         self._seq = SequenceCounter()
 
@@ -73,6 +74,10 @@ class ArmController:
         """
         if not self.armed:
             return None
+        paused_by = self.paused_by
+        if paused_by:
+            self.note = f"paused: {', '.join(sorted(paused_by))}"
+            return self._hold(goal, t)
         if goal is None or not goal.valid:
             self.note = (goal.note or "goal invalid — holding") if goal is not None else "no goal yet"
             return self._hold(goal, t)
@@ -131,3 +136,16 @@ class ArmController:
 
     def rearm(self) -> None:
         self.armed = True
+
+    def pause(self, reason: str) -> None:
+        """Hold still (the last command repeats) until :meth:`resume` with the same reason;
+        several reasons may hold at once. Unlike the e-stop the link stays commanded."""
+        self.paused_by = self.paused_by | {str(reason)}
+
+    def resume(self, reason: str) -> None:
+        """Drop one reason to hold still (no effect if it was not holding)."""
+        self.paused_by = self.paused_by - {str(reason)}
+
+    @property
+    def paused(self) -> bool:
+        return bool(self.paused_by)
