@@ -24,7 +24,7 @@ import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.calibration_worker import CalibrationController
-from app.startup import make_app
+from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
@@ -1124,15 +1124,14 @@ def deskarm_version() -> str:
 
 
 def run_window(options: SessionOptions, size: tuple[int, int],
-               splash: Optional[QtWidgets.QSplashScreen] = None) -> int:
+               splash: Optional[QtWidgets.QWidget] = None) -> int:
     """Open the window and run until it is closed (fitted to the screen it opens on); the
     start-up ``splash`` (app.startup.show_splash) stays up until the window shows."""
     app = make_app()
     try:
         session = DeskSession.create(options)
     except (OSError, RuntimeError, ValueError) as exc:
-        if splash is not None:
-            splash.close()
+        finish_splash(splash)
         QtWidgets.QMessageBox.critical(None, "deskarm could not start", str(exc))
         return 1
     window = MainWindow(session)
@@ -1148,8 +1147,7 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     else:
         window.move(free.topLeft())
         window.show()
-    if splash is not None:
-        splash.finish(window)
+    finish_splash(splash)
     window.start()
     return app.exec()
 

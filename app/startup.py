@@ -25,8 +25,13 @@ def make_app() -> QtWidgets.QApplication:
     return app
 
 
-def show_splash(text: str = "starting cameras and the robot model…") -> Optional[QtWidgets.QSplashScreen]:
-    """A "deskarm — starting…" card, painted and on screen before this returns."""
+def show_splash(text: str = "starting cameras and the robot model…") -> QtWidgets.QLabel:
+    """A "deskarm — starting…" card, painted and on screen before this returns.
+
+    A plain frameless label with the SplashScreen window flag: ``QSplashScreen.show()`` blocks
+    for about a second on Qt 6.11 (measured by bench/bench_startup.py), this shows in ~1 ms.
+    Close it with :func:`finish_splash` once the window is up.
+    """
     app = make_app()
     w, h = SPLASH_SIZE
     pixmap = QtGui.QPixmap(w, h)
@@ -44,7 +49,20 @@ def show_splash(text: str = "starting cameras and the robot model…") -> Option
     painter.drawText(QtCore.QRect(10, 80, w - 20, 50), QtCore.Qt.AlignmentFlag.AlignCenter
                      | QtCore.Qt.TextFlag.TextWordWrap, text)
     painter.end()
-    splash = QtWidgets.QSplashScreen(pixmap)
+    splash = QtWidgets.QLabel()
+    splash.setWindowFlags(QtCore.Qt.WindowType.SplashScreen | QtCore.Qt.WindowType.FramelessWindowHint)
+    splash.setPixmap(pixmap)
+    splash.setFixedSize(w, h)
+    screen = app.primaryScreen()
+    if screen is not None:
+        splash.move(screen.availableGeometry().center() - splash.rect().center())
     splash.show()
     app.processEvents()  # painted now, not when the event loop starts
     return splash
+
+
+def finish_splash(splash: Optional[QtWidgets.QWidget]) -> None:
+    """Close the start-up card (None: there was none)."""
+    if splash is not None:
+        splash.close()
+        splash.deleteLater()

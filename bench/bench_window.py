@@ -8,8 +8,10 @@ with the default (only what changed is redrawn). A child samples ``time.process_
 against ``time.perf_counter()`` once per second after a warm-up, and counts the camera frames
 the window actually drew (``CameraView.frames_drawn`` of the left view) per second.
 
-Run alone: ``python -m bench.bench_window [--quick]``. The child is
-``python -m bench.bench_window --child idle|follow --seconds N [--redraw-all]``.
+Run alone: ``python -m bench.bench_window [--quick] [--root DIR]`` (``--root``: measure another
+checkout of deskarm, e.g. a git worktree of an older commit, with this venv). The child is
+``python bench/bench_window.py --child idle|follow --seconds N [--redraw-all]``, run as a script in
+``root`` with ``PYTHONPATH=root`` so that it imports that checkout's ``app``, ``core`` and ``widgets``.
 """
 from __future__ import annotations
 
@@ -33,15 +35,16 @@ REPO = Path(__file__).resolve().parents[1]
 # Parent: one subprocess per measurement
 
 
-def measure(mode: str, seconds: float, redraw_all: bool) -> dict:
-    """Run one child and return its JSON result (``cpu_pct``, ``gui_pct``, ``drawn_fps`` lists)."""
+def measure(mode: str, seconds: float, redraw_all: bool, root: Path = REPO) -> dict:
+    """Run one child on the checkout ``root``; its JSON result (``cpu_pct``, ``gui_pct``, ``drawn_fps`` lists)."""
     if mode not in SCENARIOS:
         raise ValueError(f"window bench mode {mode!r}; allowed: {', '.join(SCENARIOS)}")
-    cmd = [sys.executable, "-m", "bench.bench_window", "--child", mode, "--seconds", f"{seconds:g}"]
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", mode, "--seconds", f"{seconds:g}"]
     if redraw_all:
         cmd.append("--redraw-all")
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
-    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, check=False,
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), os.environ.get("PYTHONPATH")) if p)
+    proc = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, check=False,
                           timeout=WARMUP_S + seconds + CHILD_TIMEOUT_MARGIN_S)
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
     if proc.returncode != 0 or not lines:
@@ -50,14 +53,14 @@ def measure(mode: str, seconds: float, redraw_all: bool) -> dict:
     return json.loads(lines[-1])
 
 
-def rows(quick: bool = False) -> list[dict]:
+def rows(quick: bool = False, root: Path = REPO) -> list[dict]:
     """Idle and follow, redraw-all (baseline) and redraw-changed: % of one core, per second."""
     seconds = 4.0 if quick else 20.0
     out = []
     for mode, what in (("idle", "idle (static desk)"), ("follow", "following a marker (wander)")):
         base_name = f"window CPU {what}, redraw-all"
         for redraw_all in (True, False):
-            r = measure(mode, seconds, redraw_all)
+            r = measure(mode, seconds, redraw_all, root)
             name = base_name if redraw_all else f"window CPU {what}, redraw-changed"
             extra = (f"800x480 offscreen, {seconds:g} s: drawn {np.median(r['drawn_fps']):.1f} fps"
                      f" (status bar {r['status_fps']}), GUI thread {np.median(r['gui_pct']):.0f} %"
@@ -77,10 +80,15 @@ def child(mode: str, seconds: float, redraw_all: bool) -> dict:
 
     from PySide6 import QtCore
 
-    from app.gui import MainWindow, _make_app
+    from app.gui import MainWindow
     from core.session import DeskSession, SessionOptions, freeze_startup_objects
 
-    app = _make_app()
+    try:
+        from app.startup import make_app
+    except ImportError:  # a checkout from before app/startup.py
+        from app.gui import _make_app as make_app
+
+    app = make_app()
     session = DeskSession.create(SessionOptions(camera="sim", scenario=SCENARIOS[mode]))
     window = MainWindow(session)
     window.redraw_only_changes = not redraw_all
@@ -133,9 +141,12 @@ def main(argv: list[str]) -> int:
         seconds = float(argv[argv.index("--seconds") + 1]) if "--seconds" in argv else 20.0
         print(json.dumps(child(mode, seconds, "--redraw-all" in argv)), flush=True)
         return 0
+    if str(REPO) not in sys.path:  # run as a script: the table formatter lives in bench/__main__
+        sys.path.insert(0, str(REPO))
     from bench.__main__ import format_table
 
-    print(format_table(rows(quick="--quick" in argv)))
+    root = Path(argv[argv.index("--root") + 1]) if "--root" in argv else REPO
+    print(format_table(rows(quick="--quick" in argv, root=root)))
     return 0
 
 
