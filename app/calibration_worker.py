@@ -14,8 +14,13 @@ slot methods of the wizard):
 - sigReport(ReportUpdate) — a calibration finished
 - sigFailed(str) — a user action (start, snapshot, calibrate, remove) failed; says why and what to do
 
-CalibrationController.sigCalibrationInstalled(Path, StereoCalibration) — GUI thread, after
-"Save and use" wrote the app's calibration (``install_calibration``).
+CalibrationController's signals (GUI thread):
+- sigCalibrationInstalled(Path, StereoCalibration) — after "Save and use" wrote the app's
+  calibration (``install_calibration``)
+- sigStopRequested() — STOP (or Esc) in the wizard: the window stops the arm and calls
+  ``set_estop(True)``; the wizard covers the window's own STOP on a small screen
+- sigBoardShown(BoardSpec or None) — a capture session started with this board / the wizard
+  closed: a simulated camera shows the board meanwhile (``SimStereoCamera.show_board``)
 """
 from __future__ import annotations
 
@@ -382,9 +387,15 @@ class CalibrationController(QtCore.QObject):
     Signals (GUI thread):
         sigCalibrationInstalled(object path, object calibration): "Save and use" wrote ``path``
             (the app's calibration) holding ``calibration``; the window switches to it.
+        sigStopRequested(): the wizard's STOP was tapped (or Esc pressed): stop the arm, then
+            tell the wizard with ``set_estop(True)``.
+        sigBoardShown(object board): a capture session started for ``board`` (a BoardSpec), or
+            None when the wizard closed — a simulated camera shows that board meanwhile.
     """
 
     sigCalibrationInstalled = QtCore.Signal(object, object)
+    sigStopRequested = QtCore.Signal()
+    sigBoardShown = QtCore.Signal(object)
 
     def __init__(self, parent: Optional[QtCore.QObject] = None, sessions_root: Optional[Path] = None,
                  board: Optional[BoardSpec] = None, min_interval_s: float = LIVE_MIN_INTERVAL_S,
@@ -397,6 +408,7 @@ class CalibrationController(QtCore.QObject):
         self.wizard = None
         self.worker: Optional[CalibrationWorker] = None
         self.installed_path: Optional[Path] = None
+        self.estop_engaged = False  # the arm's e-stop state, shown by every wizard opened
 
     @property
     def active(self) -> bool:
@@ -424,7 +436,9 @@ class CalibrationController(QtCore.QObject):
         wizard.sigCalibrateRequested.connect(worker.calibrate)
         wizard.sigRemoveRequested.connect(self.on_remove_requested)
         wizard.sigSaveRequested.connect(self.on_save_requested)
+        wizard.sigStopRequested.connect(self.sigStopRequested)
         wizard.finished.connect(self.on_wizard_finished)
+        wizard.set_estop(self.estop_engaged)
         self.wizard, self.worker = wizard, worker
         worker.start()
         wizard.show_adaptive()
@@ -434,6 +448,12 @@ class CalibrationController(QtCore.QObject):
         """A live frame from the window (ignored while the wizard is closed)."""
         if frame is not None and self.worker is not None:
             self.worker.feed(frame)
+
+    def set_estop(self, engaged: bool) -> None:
+        """The arm's e-stop state (the window's): shown by the open wizard and any opened later."""
+        self.estop_engaged = bool(engaged)
+        if self.wizard is not None:
+            self.wizard.set_estop(self.estop_engaged)
 
     def camera_problem(self, message: str) -> None:
         """Tell the open wizard that the cameras stopped (message) or are back ("")."""
@@ -458,6 +478,7 @@ class CalibrationController(QtCore.QObject):
         self.board = board
         if self.worker is not None:
             self.worker.start_session(board, new_session_folder(self.sessions_root))
+            self.sigBoardShown.emit(board)
 
     @QtCore.Slot(object)
     def on_remove_requested(self, numbers) -> None:
@@ -488,6 +509,7 @@ class CalibrationController(QtCore.QObject):
         wizard, self.wizard = self.wizard, None
         if wizard is not None:
             wizard.deleteLater()
+            self.sigBoardShown.emit(None)  # a simulated camera takes its board away
 
 
 def _reloaded(path: Path, fallback: StereoCalibration) -> StereoCalibration:

@@ -629,9 +629,23 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_open_calibration(self) -> None:
         """Open the calibration wizard (fed with the live frames while it is open)."""
         if self.calibration_controller is None:
-            self.calibration_controller = CalibrationController(self)
-            self.calibration_controller.sigCalibrationInstalled.connect(self.on_calibration_installed)
+            ctl = self.calibration_controller = CalibrationController(self)
+            ctl.sigCalibrationInstalled.connect(self.on_calibration_installed)
+            ctl.sigStopRequested.connect(self.on_stop_requested)  # the wizard's own STOP and Esc
+            ctl.sigBoardShown.connect(self.on_board_shown)
+        self.calibration_controller.set_estop(not self.session.controller.armed)
         self.calibration_controller.open(self)
+
+    @QtCore.Slot(object)
+    def on_board_shown(self, board) -> None:
+        """The wizard is capturing ``board`` (None: closed): the simulated desk holds one up."""
+        show = getattr(self.session.camera, "show_board", None)
+        if show is None:
+            return
+        try:
+            show(board)
+        except (RuntimeError, ValueError) as exc:
+            self._show_note(f"the simulated desk cannot show this board: {exc}")
 
     @QtCore.Slot(object, object)
     def on_calibration_installed(self, path, calibration) -> None:

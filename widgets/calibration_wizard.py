@@ -13,17 +13,34 @@ The wizard owns no thread and no calibration state: it shows what a worker repor
    lines, Save and use.
 
 Usable on a 800×480 touch screen (full screen there, every target ≥ 44 px) and on desktops.
+Full screen it hides the window's STOP while the arm keeps moving, so the wizard carries its own
+STOP (and takes Esc as STOP, never as "close") in a strip above every page; it never re-arms.
+The board page saves the chosen board as a PNG (300 dpi, stored in the file) or a PDF at true
+size (``save_printable_board``) for the user to print.
 """
 from __future__ import annotations
 
 import math
-from typing import Optional
+from pathlib import Path
+from typing import Optional, Union
 
 import cv2
 import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from core.vision.board_print import (
+    CAPTION_MM,
+    PAGE_MARGIN_MM,
+    PRINT_DPI,
+    board_caption,
+    board_print_image,
+    choose_page,
+    default_file_stem,
+    printed_size_mm,
+    px_per_mm,
+    save_board_png,
+)
 from core.vision.stereo_calibration import (
     ARUCO_DICTIONARY_NAMES,
     BoardError,
@@ -57,6 +74,25 @@ USED_BRUSH = pg.mkBrush(58, 123, 213)
 WORST_BRUSH = pg.mkBrush(211, 47, 47)
 REJECTED_BRUSH = pg.mkBrush(160, 160, 160)
 SELECTED_PEN = pg.mkPen("#ffd54f", width=3)
+STOP_PX = TOUCH_PX + 8  # as tall as the window's STOP (widgets/estop.py)
+STOP_STYLE = f"""
+QPushButton {{
+    min-height: {STOP_PX}px; min-width: 110px; font-size: 15pt; font-weight: bold; color: white;
+    background: {ERROR_COLOUR}; border: 3px solid #7f0000; border-radius: 8px; padding: 0 14px;
+}}
+QPushButton:pressed {{ background: #7f0000; }}
+QPushButton:disabled {{ background: #bdbdbd; color: #6d6d6d; border: 3px solid #9e9e9e; }}
+"""
+ESTOP_TEXT = {
+    False: "Arm moving — STOP stops it",
+    True: "ARM STOPPED (e-stop) — re-arm in the main window after closing this",
+}
+NO_BOARD_HINT_S = 3.0  # after this long (camera time) without a board the capture page says what to do
+NO_BOARD_HINT = ("no board in view — hold the printed board so all of it is seen by both cameras; "
+                 "print one with 'Save printable board…'")
+NO_CHARUCO_HINT = ("no board in view — hold the printed board so both cameras see most of it; "
+                   "print one with 'Save printable board…'")
+PRINT_FILTERS = ("PDF, true size (*.pdf)", f"PNG image, {PRINT_DPI} dpi (*.png)")
 
 
 def coverage_hint(cov: Coverage) -> str:
@@ -200,6 +236,8 @@ class CalibrationWizard(QtWidgets.QDialog):
         sigCalibrateRequested(): calibrate from the captured pairs.
         sigRemoveRequested(object numbers): drop these capture numbers (tuple of int) and recalibrate.
         sigSaveRequested(object update): make the calibration of this ReportUpdate the app's.
+        sigStopRequested(): STOP tapped or Esc pressed — stop the arm (the wizard stays open;
+            ``set_estop`` shows the state; nothing here re-arms).
 
     Slots for the worker (GUI thread, queued): ``on_session``, ``on_live``, ``on_pairs``,
     ``on_progress``, ``on_report``, ``on_failed``; and ``on_saved`` for whoever saves.
@@ -212,6 +250,7 @@ class CalibrationWizard(QtWidgets.QDialog):
     sigCalibrateRequested = QtCore.Signal()
     sigRemoveRequested = QtCore.Signal(object)
     sigSaveRequested = QtCore.Signal(object)
+    sigStopRequested = QtCore.Signal()
 
     def __init__(self, board: Optional[BoardSpec] = None, parent: Optional[QtWidgets.QWidget] = None) -> None:
         super().__init__(parent)
@@ -224,6 +263,7 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.report_update = None
         self.last_live = None
         self.live_count = 0  # live updates shown (tests, diagnostics)
+        self.last_printed: Optional[Path] = None  # the printable board saved last
         self._last_number = -1
         self._pending_live = None
         self._busy = False
@@ -233,12 +273,33 @@ class CalibrationWizard(QtWidgets.QDialog):
         self._live_timer.setSingleShot(True)
         self._live_timer.setInterval(LIVE_REDRAW_MS)
         self._live_timer.timeout.connect(self._draw_live)
+        self._board_missing_since: Optional[float] = None  # camera time since when no view sees the board
+        self._capture_board: Optional[BoardSpec] = None  # the board of the capture session started last
 
         self.title = _bold(QtWidgets.QLabel(), 1.15)
         self.close_button = touch_button("Close")
         self.close_button.clicked.connect(self.close)
+        # the e-stop strip: above every page, never scrolled away, STOP where the window has it
+        self.estop_engaged = False
+        self.estop_label = QtWidgets.QLabel()
+        self.estop_label.setWordWrap(True)
+        self.estop_label.setMinimumWidth(120)
+        self.stop_button = QtWidgets.QPushButton("STOP")
+        self.stop_button.setStyleSheet(STOP_STYLE)
+        self.stop_button.setMinimumHeight(STOP_PX)
+        self.stop_button.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+        self.stop_button.setToolTip("Emergency stop (Esc): the arm stops. Re-arm it in the main window.")
+        stop_font = QtGui.QFont(self.stop_button.font())
+        stop_font.setPointSize(15)
+        stop_font.setBold(True)
+        self.stop_button.setMinimumWidth(QtGui.QFontMetrics(stop_font).horizontalAdvance("STOPPED") + 40)
+        self.stop_button.clicked.connect(self.request_stop)
         top = QtWidgets.QHBoxLayout()
-        top.addWidget(self.title, 1)
+        top.setSpacing(8)
+        top.addWidget(self.title)
+        top.addWidget(self.estop_label, 1)
+        top.addWidget(self.stop_button)
+        top.addSpacing(12)  # a finger aiming at STOP must not land on Close
         top.addWidget(self.close_button)
         self.stack = QtWidgets.QStackedWidget()
         self.stack.addWidget(self._build_board_page())
@@ -253,6 +314,29 @@ class CalibrationWizard(QtWidgets.QDialog):
             self.set_board(board)
         self._on_board_edited()
         self.set_page("board")
+        self.set_estop(False)
+
+    # ---------------------------------------------------------------------------- e-stop
+    def request_stop(self) -> None:
+        """STOP (the button or Esc): ask the owner to stop the arm, as often as it is asked."""
+        self.sigStopRequested.emit()
+
+    def set_estop(self, engaged: bool) -> None:
+        """Show the arm's e-stop state: STOP greyed out while stopped (this wizard never re-arms)."""
+        self.estop_engaged = bool(engaged)
+        self.estop_label.setText(ESTOP_TEXT[self.estop_engaged])
+        self.estop_label.setStyleSheet(_status_style("error") if self.estop_engaged else
+                                       f"QLabel {{ color: {ERROR_COLOUR}; font-weight: bold; }}")
+        self.stop_button.setText("STOPPED" if self.estop_engaged else "STOP")
+        self.stop_button.setEnabled(not self.estop_engaged)
+
+    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
+        """Esc is STOP, as in the main window, and does not close the wizard (Close does)."""
+        if event.key() == QtCore.Qt.Key.Key_Escape:
+            event.accept()
+            self.request_stop()
+            return
+        super().keyPressEvent(event)
 
     # ---------------------------------------------------------------------------- page 1: board
     def _build_board_page(self) -> QtWidgets.QWidget:
@@ -326,6 +410,13 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.board_help = QtWidgets.QLabel()
         self.board_help.setWordWrap(True)
         grid.addWidget(self.board_help, row, 0, 1, 4)
+        # after "Save printable board…" what was saved and how to print it, in board_help's place
+        # (no extra row: the page already fills a 800×480 screen)
+        self.print_label = QtWidgets.QLabel()
+        self.print_label.setWordWrap(True)
+        self.print_label.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.print_label.hide()
+        grid.addWidget(self.print_label, row, 0, 1, 4)
         row += 1
         self.board_error = QtWidgets.QLabel()
         self.board_error.setWordWrap(True)
@@ -333,9 +424,14 @@ class CalibrationWizard(QtWidgets.QDialog):
         grid.addWidget(self.board_error, row, 0, 1, 4)
         row += 1
         grid.setRowStretch(row, 1)
+        self.print_button = touch_button("Save printable board…")
+        self.print_button.setToolTip(f"Save the board above as a PDF at true size or a {PRINT_DPI} dpi PNG, "
+                                     "to print at 100 %")
+        self.print_button.clicked.connect(self._on_save_printable)
         self.start_button = touch_button("Start capturing ▶")
         self.start_button.clicked.connect(self._on_start)
         buttons = QtWidgets.QHBoxLayout()
+        buttons.addWidget(self.print_button)
         buttons.addStretch(1)
         buttons.addWidget(self.start_button)
         grid.addLayout(buttons, row + 1, 0, 1, 4)
@@ -370,6 +466,8 @@ class CalibrationWizard(QtWidgets.QDialog):
     def _on_board_edited(self, *_args) -> None:
         if not hasattr(self, "board_error"):  # still building the page
             return
+        self.print_label.hide()  # it named the board saved before this edit
+        self.board_help.show()
         chess = self.kind_buttons["chessboard"].isChecked()
         for widgets in self._chess_rows:
             for w in widgets:
@@ -395,6 +493,45 @@ class CalibrationWizard(QtWidgets.QDialog):
             self.start_button.setToolTip(board.describe())
             self.board_preview.set_image(board_picture(board))
 
+    def _on_save_printable(self) -> None:
+        """Ask where, then write the board as a PDF (true size) or a 300 dpi PNG, by the suffix."""
+        try:
+            board = self.board()
+        except BoardError as exc:
+            self.board_error.setText(str(exc))
+            self.board_error.show()
+            return
+        start = str(Path.home() / f"{default_file_stem(board)}.pdf")
+        path, chosen = QtWidgets.QFileDialog.getSaveFileName(self, "Save printable board", start,
+                                                             ";;".join(PRINT_FILTERS), PRINT_FILTERS[0])
+        if not path:
+            return  # cancelled
+        target = Path(path)
+        if target.suffix.lower() not in (".pdf", ".png"):
+            target = target.with_name(target.name + (".png" if chosen == PRINT_FILTERS[1] else ".pdf"))
+        self.save_printable(board, target)
+
+    def save_printable(self, board: BoardSpec, path: Union[str, Path]) -> Optional[Path]:
+        """Write ``board`` to ``path`` (``save_printable_board``) and say on the page what to do next."""
+        try:
+            written = save_printable_board(board, path)
+        except (OSError, ValueError) as exc:
+            self._show_print_result(f"could not save the printable board: {exc} — choose another folder or name",
+                                    "error", str(path))
+            return None
+        square = f"{board.square_m * 1e3:g} mm"
+        self._show_print_result(f"✓ saved {_short(str(written))} — print it at 100 % / actual size (no 'fit to "
+                                f"page'), then measure one square: it must be {square}", "ok", str(written))
+        self.last_printed = written
+        return written
+
+    def _show_print_result(self, text: str, level: str, tooltip: str = "") -> None:
+        self.print_label.setText(text)
+        self.print_label.setToolTip(tooltip)
+        self.print_label.setStyleSheet(_status_style(level))
+        self.board_help.hide()
+        self.print_label.show()
+
     def _on_start(self) -> None:
         try:
             board = self.board()
@@ -403,6 +540,8 @@ class CalibrationWizard(QtWidgets.QDialog):
             self.board_error.show()
             return
         self.session_id = None  # updates from the old session are stale from now on
+        self._board_missing_since = None
+        self._capture_board = board
         self.numbers = ()
         self.coverage = None
         self.report_update = None
@@ -668,6 +807,7 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.session_id = info.session_id
         self.folder = info.folder
         self._last_number = -1
+        self._board_missing_since = None
         self.numbers = ()
         self._update_calibrate_button()
         self._set_gate_text(f"{info.board_description} — show it to both cameras"
@@ -681,14 +821,28 @@ class CalibrationWizard(QtWidgets.QDialog):
         self._last_number = live.number
         self.last_live = live
         self.live_count += 1
+        if live.left_ok or live.right_ok:
+            self._board_missing_since = None
+        elif self._board_missing_since is None or live.t < self._board_missing_since:
+            self._board_missing_since = live.t  # (an earlier t: another camera; count from here)
         self._show_coverage(live.coverage)
         self._set_gate_text(*self._gate_text(live))
         self._pending_live = live
         if not self._live_timer.isActive():  # images at display rate, the newest only
             self._live_timer.start()
 
+    def board_missing_s(self, live=None) -> float:
+        """How long (camera time, s) no view has seen the board, up to the live update ``live``."""
+        live = live if live is not None else self.last_live
+        if live is None or self._board_missing_since is None or live.left_ok or live.right_ok:
+            return 0.0
+        return max(0.0, live.t - self._board_missing_since)
+
     def _gate_text(self, live) -> tuple[str, str]:
         g = live.gate
+        if not (live.left_ok or live.right_ok) and self.board_missing_s(live) >= NO_BOARD_HINT_S:
+            text = NO_CHARUCO_HINT if isinstance(self._capture_board, CharucoSpec) else NO_BOARD_HINT
+            return text + (f" ({live.note})" if live.note else ""), "error"
         if live.captured is not None:
             hint = coverage_hint(live.coverage)
             return (f"✓ captured #{live.captured}" + (f" — now {hint}" if hint else
@@ -839,10 +993,74 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.saved_label.show()
 
 
+def save_printable_board(board: BoardSpec, path: Union[str, Path]) -> Path:
+    """Write ``board`` for printing: ``.png`` at 300 dpi (stored in the file) or ``.pdf`` at true
+    size on the smallest A-sheet that holds it, with a caption saying how to check the print.
+
+    The PDF needs a QGuiApplication (fonts). ValueError for another suffix or a board larger
+    than A0; OSError when the file cannot be written.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".png":
+        return save_board_png(board, path, PRINT_DPI)
+    if suffix == ".pdf":
+        return _save_board_pdf(board, path)
+    raise ValueError(f"{path.name}: cannot save a board as {suffix or 'a file without a suffix'} — "
+                     f"name it .pdf (true size) or .png ({PRINT_DPI} dpi)")
+
+
+def _save_board_pdf(board: BoardSpec, path: Path) -> Path:
+    name, page_w_mm, page_h_mm = choose_page(board)  # ValueError beyond A0, before touching the file
+    if not path.parent.is_dir():
+        raise OSError(f"{path.parent}: no such folder")
+    img = board_print_image(board, PRINT_DPI)
+    h, w = img.shape
+    image = QtGui.QImage(img.data, w, h, int(img.strides[0]), QtGui.QImage.Format.Format_Grayscale8).copy()
+    dots_per_m = int(round(PRINT_DPI / 0.0254))
+    image.setDotsPerMeterX(dots_per_m)
+    image.setDotsPerMeterY(dots_per_m)
+    caption = board_caption(board)
+    orientation = (QtGui.QPageLayout.Orientation.Landscape if page_w_mm > page_h_mm
+                   else QtGui.QPageLayout.Orientation.Portrait)
+    writer = QtGui.QPdfWriter(str(path))
+    writer.setResolution(PRINT_DPI)
+    writer.setPageLayout(QtGui.QPageLayout(QtGui.QPageSize(getattr(QtGui.QPageSize.PageSizeId, name)),
+                                           orientation, QtCore.QMarginsF(0, 0, 0, 0),
+                                           QtGui.QPageLayout.Unit.Millimeter))
+    writer.setTitle(caption)
+    writer.setCreator("deskarm")
+    painter = QtGui.QPainter()
+    if not painter.begin(writer):
+        raise OSError(f"{path}: cannot write the PDF — check that the folder is writable")
+    try:
+        # the image's pixels are the device's (both 300 dpi): drawn 1:1, never resampled
+        painter.setRenderHint(QtGui.QPainter.RenderHint.LosslessImageRendering)
+        ppmm = px_per_mm(PRINT_DPI)
+        board_w_mm, board_h_mm = printed_size_mm(board)
+        x_mm = (page_w_mm - board_w_mm) / 2
+        y_mm = PAGE_MARGIN_MM + (page_h_mm - 2 * PAGE_MARGIN_MM - CAPTION_MM - board_h_mm) / 2
+        painter.drawImage(QtCore.QRectF(x_mm * ppmm, y_mm * ppmm, w, h), image)
+        font = QtGui.QFont(painter.font())
+        font.setPointSizeF(7.5)
+        painter.setFont(font)
+        painter.setPen(QtGui.QColor("black"))
+        text_rect = QtCore.QRectF(PAGE_MARGIN_MM * ppmm, (y_mm + board_h_mm + 1.0) * ppmm,
+                                  (page_w_mm - 2 * PAGE_MARGIN_MM) * ppmm, (CAPTION_MM + PAGE_MARGIN_MM / 2) * ppmm)
+        painter.drawText(text_rect, int(QtCore.Qt.AlignmentFlag.AlignHCenter | QtCore.Qt.AlignmentFlag.AlignTop
+                                        | QtCore.Qt.TextFlag.TextWordWrap), caption)
+    finally:
+        painter.end()
+    if not path.is_file():
+        raise OSError(f"{path}: the PDF was not written — check the free space and the folder's permissions")
+    return path
+
+
 def _short(path: str, keep: int = 2) -> str:
     """The last ``keep`` parts of a path, after "…/" when there are more (full paths go in tooltips)."""
     parts = [p for p in str(path).replace("\\", "/").split("/") if p]
     return str(path) if len(parts) <= keep else "…/" + "/".join(parts[-keep:])
 
 
-__all__ = ["CalibrationWizard", "ImagePane", "coverage_hint", "worst_count", "PAGES", "board_picture"]
+__all__ = ["CalibrationWizard", "ImagePane", "coverage_hint", "worst_count", "PAGES", "board_picture",
+           "save_printable_board", "NO_BOARD_HINT", "NO_BOARD_HINT_S"]

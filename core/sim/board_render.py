@@ -7,7 +7,9 @@ JPEG compression (webcams send MJPG). Because the intrinsics, distortion and the
 pose are known, a calibration from these images can be scored against the truth.
 
 Used by the tests, the calibration bench and (through ``RenderedBoardCamera``) the wizard's tests,
-which need a camera that shows a board held still at a sequence of poses.
+which need a camera that shows a board held still at a sequence of poses. ``board_overlay`` /
+``paint_overlay`` put a board over any other render at ``held_board_poses`` (the simulated desk
+camera's ``show_board``, while the calibration wizard is open).
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ import numpy as np
 
 from core.messages import SequenceCounter, StereoFrame
 from core.vision.cameras import ClockPacedSource
-from core.vision.stereo_calibration import BoardSpec, ChessboardSpec
+from core.vision.stereo_calibration import BoardDetection, BoardSpec, ChessboardSpec, pose_params
 
 # ----------------------------------------------------------------------------------------------
 # the rig
@@ -88,6 +90,14 @@ def default_rig(distortion: bool = False, size: tuple[int, int] = (640, 480)) ->
     if tuple(size) != rig.size:
         truth = truth.scaled(size[0] / rig.size[0])
     return truth
+
+
+def sim_rig_truth(rig) -> StereoRigTruth:
+    """The StereoRigTruth of a ``SimRig`` (or anything with ``K``, ``size`` and ``calibration()``):
+    the same pinhole in both cameras, no distortion, the rig's exact extrinsics."""
+    calib = rig.calibration()
+    return StereoRigTruth(np.array(rig.K, float), np.zeros(5), np.array(rig.K, float), np.zeros(5),
+                          np.array(calib.R, float), np.array(calib.T, float).reshape(3), tuple(rig.size))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -375,6 +385,127 @@ def write_pairs(folder: Union[str, os.PathLike], pairs: Sequence, fmt: str = "pn
 
 
 # ----------------------------------------------------------------------------------------------
+# a board painted over another render (the simulated desk shows it while the wizard is open)
+
+PAPER_LEVELS = (28, 226)  # printed black and paper white, 8-bit (as the desk's markers)
+
+
+def held_board_poses(board: BoardSpec, rig: StereoRigTruth, n: int = 20, seed: int = 0,
+                     max_tilt_deg: float = 40.0, candidates: int = 10) -> list[BoardPose]:
+    """``n`` poses of ``board`` held in front of ``rig`` that fill the calibration wizard's meters:
+    all of the paper in both views, from "fills most of the image" to about 2.4× that distance,
+    tilted, out to the image's edges, each far from the others in (x, y, size, skew).
+
+    Drawn from ``n × candidates`` random_poses by farthest-point sampling in the wizard's pose
+    parameters (starting from the nearest pose), so the extremes come first and no two poses are
+    so alike that the wizard's novelty gate would refuse one.
+    """
+    tex = board_texture(board)
+    paper = tex.outline_m
+    diag_m = float(np.linalg.norm(paper[2] - paper[0]))
+    w, h = rig.size
+    f = float(rig.K1[0, 0])
+    near = f * diag_m / (0.8 * math.hypot(w, h))  # the paper's diagonal spans ~80 % of the image's
+    m = max(n, n * int(candidates))
+    for _ in range(3):  # a long, thin board may need more room: step back
+        try:
+            pool = random_poses(board, rig, m, seed=seed, distance_m=(near, 2.4 * near),
+                                max_tilt_deg=max_tilt_deg)
+            break
+        except RuntimeError:
+            near *= 1.5
+    else:  # the last try raises random_poses' own message
+        pool = random_poses(board, rig, m, seed=seed, distance_m=(near, 2.4 * near), max_tilt_deg=max_tilt_deg)
+    params = np.array([_image_params(board, rig, pose) for pose in pool])
+    chosen = [int(np.argmax(params[:, 2]))]
+    dist = np.abs(params - params[chosen[0]]).sum(axis=1)  # L1, as PoseParams.distance
+    while len(chosen) < n:
+        k = int(np.argmax(dist))
+        chosen.append(k)
+        dist = np.minimum(dist, np.abs(params - params[k]).sum(axis=1))
+    return [pool[k] for k in chosen]
+
+
+def _image_params(board: BoardSpec, rig: StereoRigTruth, pose: BoardPose) -> tuple[float, float, float, float]:
+    """The wizard's (x, y, size, skew) of the board at ``pose`` in the left view, from the truth."""
+    corners = project(rig, "left", pose, board.object_points()).astype(np.float32)
+    det = BoardDetection(True, corners, np.arange(len(corners), dtype=np.int32), image_size=tuple(rig.size))
+    return pose_params(det, board).as_tuple()
+
+
+@dataclass(frozen=True, eq=False)
+class BoardOverlay:
+    """A board as one camera sees it, ready to paint over any render of that camera."""
+
+    x0: int  # the patch's top-left pixel in the image
+    y0: int
+    colour: np.ndarray  # (h, w) float32, grey premultiplied by alpha (0 … 255)
+    alpha: np.ndarray  # (h, w) float32 coverage 0 … 1 (anti-aliased paper edge)
+
+
+def board_overlay(board: BoardSpec, rig: StereoRigTruth, side: str, pose: BoardPose, supersample: int = 4,
+                  blur_sigma_px: float = 0.0, noise_sigma: float = 0.0, seed: int = 0,
+                  paper: tuple[int, int] = PAPER_LEVELS) -> Optional[BoardOverlay]:
+    """The printed board at ``pose`` (in camera_left) seen by ``side``, pinhole only (the rig's
+    distortion is ignored); None when no part of it is in front of the camera and in the image.
+
+    Warped at ``supersample``× and area-averaged like ``render_view``; ``blur_sigma_px`` and
+    ``noise_sigma`` (8-bit levels, fixed per call: a still board gives still pixels) make it look
+    like the rest of the camera's picture.
+    """
+    tex = board_texture(board)
+    K, _ = rig.camera(side)
+    R, t = rig.pose_in(side, pose.R, pose.t)
+    M = K @ np.column_stack([R[:, 0], R[:, 1], t])  # board plane (x, y, 1) -> image (homogeneous)
+    corners = np.c_[tex.outline_m, np.ones(4)] @ M.T
+    if np.any(corners[:, 2] <= 1e-3):
+        return None  # (partly) behind the camera: not a pose anyone holds a board in
+    px = corners[:, :2] / corners[:, 2:3]
+    w_img, h_img = rig.size
+    pad = int(math.ceil(3 * blur_sigma_px)) + 2
+    x0, y0 = (np.floor(px.min(axis=0)).astype(int) - pad).tolist()
+    x1, y1 = (np.ceil(px.max(axis=0)).astype(int) + pad).tolist()
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    s = int(supersample)
+    # supersampled patch pixel (xs, ys) has its centre at image x0 - 0.5 + (xs + 0.5) / s
+    to_patch = np.array([[s, 0.0, (0.5 - x0) * s - 0.5], [0.0, s, (0.5 - y0) * s - 0.5], [0.0, 0.0, 1.0]])
+    H = to_patch @ M @ tex.A
+    black, white = paper
+    texture = tex.image.astype(np.float32) * ((white - black) / 255.0) + black
+    size = ((x1 - x0) * s, (y1 - y0) * s)
+    # outside the paper both warps are 0: the colour comes out premultiplied by the coverage
+    colour = cv2.warpPerspective(texture, H, size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                                 borderValue=0)
+    alpha = cv2.warpPerspective(np.ones(tex.image.shape, np.float32), H, size, flags=cv2.INTER_LINEAR,
+                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    colour = cv2.resize(colour, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
+    alpha = cv2.resize(alpha, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
+    if blur_sigma_px > 0:
+        colour = cv2.GaussianBlur(colour, (0, 0), blur_sigma_px)
+        alpha = cv2.GaussianBlur(alpha, (0, 0), blur_sigma_px)
+    if noise_sigma > 0:
+        rng = np.random.default_rng([int(seed) & 0x7FFFFFFF, 0 if side == "left" else 1])
+        colour += rng.standard_normal(colour.shape, dtype=np.float32) * np.float32(noise_sigma) * alpha
+    return BoardOverlay(x0, y0, colour, np.clip(alpha, 0.0, 1.0))
+
+
+def paint_overlay(image: np.ndarray, overlay: Optional[BoardOverlay]) -> np.ndarray:
+    """Paint ``overlay`` over a BGR (or grey) uint8 ``image`` in place ("over"); returns ``image``."""
+    if overlay is None:
+        return image
+    h, w = overlay.alpha.shape
+    roi = image[overlay.y0:overlay.y0 + h, overlay.x0:overlay.x0 + w]
+    a, c = overlay.alpha, overlay.colour
+    if roi.ndim == 3:
+        a, c = a[..., None], c[..., None]
+    out = roi.astype(np.float32) * (1.0 - a) + c
+    roi[...] = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+    return image
+
+
+# ----------------------------------------------------------------------------------------------
 # a camera that shows the board
 
 
@@ -438,7 +569,8 @@ class RenderedBoardCamera(ClockPacedSource):
 
 
 __all__ = [
-    "StereoRigTruth", "default_rig", "BoardTexture", "board_texture", "BoardPose", "random_poses",
+    "StereoRigTruth", "default_rig", "sim_rig_truth", "held_board_poses", "BoardOverlay", "board_overlay",
+    "paint_overlay", "PAPER_LEVELS", "BoardTexture", "board_texture", "BoardPose", "random_poses",
     "visible_fraction", "project", "RenderOptions", "CHEAP_WEBCAM", "render_view", "render_pair",
     "RenderedPair", "render_set", "write_pairs", "RenderedBoardCamera",
 ]

@@ -5,25 +5,35 @@ its timestamp like a webcam's grabbed frame: the render (6–8 ms a pair here) i
 pipeline's critical path and not in its latency. On a simulated clock (``--fast``, tests) frames
 are rendered in ``read``. When nothing in the scene moved (scene state, arm, camera settings)
 the previous images are delivered again, flagged ``repeated``, and nothing is rendered.
+
+``show_board`` puts a calibration board in front of the cameras (while the calibration wizard is
+open): painted over the desk, held still at each of BOARD_POSES varied poses for BOARD_HOLD_S of
+the camera's clock, then moved to the next, so the wizard can capture it like a real one.
 """
 from __future__ import annotations
 
 import collections
+import itertools
 import threading
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Optional
 
 import numpy as np
 
 from core.messages import SequenceCounter, StereoFrame
 from core.settings import CameraSettings, replace_field
+from core.sim.board_render import board_overlay, held_board_poses, paint_overlay, sim_rig_truth
 from core.sim.desk import SimDesk
 from core.sim.rig import SimRig
 from core.vision.calibration import StereoCalibration
 from core.vision.cameras import CameraControl, ClockPacedSource, check_side
+from core.vision.stereo_calibration import BoardSpec
 
 RENDER_MARGIN_S = 0.003  # a render starts this much earlier than the slowest recent render needs
+BOARD_POSES = 20  # poses a shown calibration board goes through (then round again)
+BOARD_HOLD_S = 1.5  # each pose is held still this long (camera clock): the wizard's gate needs still frames
+BOARD_SEED = 11  # seed of the shown board's poses (held_board_poses): the same poses every time
 
 _SIM_CONTROLS = (  # name, label, min, max, step (CameraSettings fields)
     ("exposure", "Exposure (EV)", -4.0, 4.0, 0.1),
@@ -33,12 +43,27 @@ _SIM_CONTROLS = (  # name, label, min, max, step (CameraSettings fields)
 )
 
 
+@dataclass(frozen=True, eq=False)
+class _ShownBoard:
+    """A board shown by ``show_board``: what, where, since when."""
+
+    serial: int  # a new one per show_board call (part of the scene key)
+    board: BoardSpec
+    poses: tuple  # BoardPose in camera_left
+    t0: float  # camera clock time of the first pose
+    hold_s: float
+
+    def index_at(self, t: float) -> int:
+        """The pose shown at camera time ``t``."""
+        return int(max(0.0, t - self.t0) // self.hold_s) % len(self.poses)
+
 
 class SimStereoCamera(ClockPacedSource):
     """The simulated desk seen by the simulated rig, at ``fps`` on the given clock.
 
     ``set_arm_points`` tells the renderer where the arm is (chain points in robot_base), so the
-    arm appears in both views as it moves.
+    arm appears in both views as it moves. ``show_board`` shows a calibration board held at a
+    sequence of poses (see the module docstring).
     """
 
     kind = "sim"
@@ -58,8 +83,13 @@ class SimStereoCamera(ClockPacedSource):
         self._arm_points: Optional[np.ndarray] = None
         self._lock = threading.Lock()
         self.repeat_unchanged = True  # re-deliver the last images when nothing in the scene moved
-        self._last_key = None  # what the last render depended on (scene, arm, camera settings)
+        self._last_key = None  # what the last render depended on (scene, arm, camera settings, board)
         self._last_render = None  # (left, right, truth) of that render
+        self._desk_key = None  # what the last desk render (without the board) depended on
+        self._desk_render = None  # (left, right, truth) of the desk alone
+        self._board: Optional[_ShownBoard] = None  # guarded by _lock (show_board runs in the GUI thread)
+        self._board_serial = itertools.count(1)
+        self._overlays: Optional[tuple] = None  # ((serial, pose index), (left, right) BoardOverlay)
         self.frames_rendered = 0
         self.frames_repeated = 0
         self.render_ahead = True  # wall clock: a sensor thread renders each frame before its time
@@ -102,12 +132,40 @@ class SimStereoCamera(ClockPacedSource):
         with self._lock:
             self._arm_points = None if points is None else np.array(points, dtype=float)
 
+    def show_board(self, board: Optional[BoardSpec]) -> None:
+        """Hold ``board`` in front of the cameras (None takes it away); any thread.
+
+        From the next frame on the board is painted over the desk, still for BOARD_HOLD_S at each
+        of BOARD_POSES poses (a fixed sequence, all of the paper in both views), then again from
+        the first. Without a board the frames are exactly those of a camera that never showed one.
+        RuntimeError if the board is too large to be held in view of this rig.
+        """
+        shown = None
+        if board is not None:
+            poses = held_board_poses(board, sim_rig_truth(self.rig), BOARD_POSES, seed=BOARD_SEED)
+            shown = _ShownBoard(next(self._board_serial), board, tuple(poses), self.clock.now(), BOARD_HOLD_S)
+        with self._lock:
+            self._board = shown
+
+    @property
+    def shown_board(self) -> Optional[BoardSpec]:
+        """The board ``show_board`` put in front of the cameras, or None."""
+        with self._lock:
+            return None if self._board is None else self._board.board
+
+    def board_pose_index(self, t: float) -> Optional[int]:
+        """Which of the shown board's poses a frame at camera time ``t`` shows (None: no board)."""
+        with self._lock:
+            shown = self._board
+        return None if shown is None else shown.index_at(t)
+
     def connect(self) -> None:
         self.disconnect()  # a second connect restarts the sensor thread
         self._connected = True
         self._t0 = self.clock.now()
         self._next = self._t0
         self._last_key = self._last_render = None
+        self._desk_key = self._desk_render = None
         if not self.clock.simulated and self.render_ahead:
             self._sensor = threading.Thread(target=self._sensor_loop, name="sim-camera", daemon=True)
             self._sensor.start()
@@ -130,7 +188,10 @@ class SimStereoCamera(ClockPacedSource):
         """The frame of time ``t``: rendered, or the last one again when nothing moved."""
         with self._lock:
             arm = self._arm_points
-        key = self.desk.scene_key(t - self._t0, arm) if self.repeat_unchanged else None
+            shown = self._board
+        desk_key = self.desk.scene_key(t - self._t0, arm) if self.repeat_unchanged else None
+        board_key = None if shown is None else (shown.serial, shown.index_at(t))
+        key = desk_key if board_key is None or desk_key is None else (desk_key, board_key)
         if key is not None and key == self._last_key and self._last_render is not None:
             # a still scene: the same images (and their noise) again, flagged so that perception
             # reuses its answer and the views skip the redraw
@@ -138,12 +199,36 @@ class SimStereoCamera(ClockPacedSource):
             self.frames_repeated += 1
             return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth, repeated=True)
         w0 = time.perf_counter()
-        left, right, truth = self.desk.render(t - self._t0, arm)
+        if desk_key is not None and desk_key == self._desk_key and self._desk_render is not None:
+            # only the board moved (or went away): the desk's own images, as a camera without a
+            # board would deliver them
+            left, right, truth = self._desk_render
+        else:
+            left, right, truth = self.desk.render(t - self._t0, arm)
+            left.flags.writeable = right.flags.writeable = False  # they may be delivered again
+            self._desk_key, self._desk_render = desk_key, (left, right, truth)
+            self.frames_rendered += 1
+        if shown is not None:
+            left, right = self._paint_board(shown, board_key[1], left, right)
         self._render_s.append(time.perf_counter() - w0)
-        left.flags.writeable = right.flags.writeable = False  # they may be delivered again
         self._last_key, self._last_render = key, (left, right, truth)
-        self.frames_rendered += 1
         return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth)
+
+    def _paint_board(self, shown: _ShownBoard, k: int, left: np.ndarray, right: np.ndarray):
+        """Copies of the desk images with the shown board at pose ``k`` painted over them."""
+        cached = self._overlays
+        if cached is None or cached[0] != (shown.serial, k):
+            truth = sim_rig_truth(self.rig)
+            # fixed noise per pose: a still board gives still pixels (the gate's "held still")
+            overlays = tuple(board_overlay(shown.board, truth, side, shown.poses[k],
+                                           blur_sigma_px=self.desk.blur_sigma_px,
+                                           noise_sigma=self.desk.noise_sigma, seed=shown.serial * 1000 + k)
+                             for side in ("left", "right"))
+            cached = self._overlays = ((shown.serial, k), overlays)
+        out = (paint_overlay(left.copy(), cached[1][0]), paint_overlay(right.copy(), cached[1][1]))
+        for image in out:
+            image.flags.writeable = False
+        return out
 
     def render_lead_s(self) -> float:
         """How long before a frame's time its render starts: the slowest of the last 60 renders

@@ -20,6 +20,8 @@ from app.calibration_worker import CalibrationController, LiveUpdate
 from core.clock import SimClock, WallClock
 from core.messages import StereoFrame
 from core.sim.board_render import RenderedBoardCamera, default_rig, random_poses
+from core.sim.camera import BOARD_HOLD_S, BOARD_POSES, SimStereoCamera
+from core.vision.board_print import read_png_dpi
 from core.vision.calibration import (
     StereoCalibration,
     installed_calibration_path,
@@ -30,7 +32,14 @@ from core.vision.stereo_calibration import (
     CharucoSpec,
     ChessboardSpec,
 )
-from widgets.calibration_wizard import CalibrationWizard, coverage_hint, worst_count
+from widgets.calibration_wizard import (
+    NO_BOARD_HINT,
+    NO_BOARD_HINT_S,
+    PRINT_FILTERS,
+    CalibrationWizard,
+    coverage_hint,
+    worst_count,
+)
 
 BOARD = ChessboardSpec(9, 6, 0.025)
 TIMEOUT_MS = 5000
@@ -322,6 +331,107 @@ def test_every_page_fits_800x480_with_finger_sized_controls(qtbot, page):
                                 QtWidgets.QCheckBox)) and control.isVisibleTo(wizard):
             assert control.height() >= 40, (page, type(control).__name__, control.height())
     assert wizard.close_button.height() >= 40
+
+
+# ------------------------------------------------------------------- the simulated desk's board
+def sim_frame(cam: SimStereoCamera, clock: SimClock, t: float) -> StereoFrame:
+    """The simulated camera's frame at camera time ``t`` (its simulated clock jumps there)."""
+    clock.advance(t - clock.now())
+    frame = cam.read()
+    assert frame.t == pytest.approx(t)
+    return frame
+
+
+def test_the_simulated_desk_shows_the_wizards_board_and_the_wizard_calibrates_from_it(qtbot, tmp_path,
+                                                                                      monkeypatch):
+    monkeypatch.setenv("DESKARM_HOME", str(tmp_path / "home"))
+    clock = SimClock()
+    cam = SimStereoCamera(scenario="static", clock=clock)
+    cam.connect()
+    ctl = CalibrationController(sessions_root=tmp_path / "sessions", min_interval_s=0.0)
+    ctl.sigBoardShown.connect(cam.show_board)  # what the window does with a simulated camera
+    wizard = ctl.open()
+    worker = ctl.worker
+    try:
+        with qtbot.waitSignal(ctl.sigBoardShown, timeout=TIMEOUT_MS) as shown:
+            qtbot.mouseClick(wizard.start_button, LEFT)
+        assert shown.args == [ChessboardSpec(9, 6, 0.025)] and cam.shown_board == wizard.board()
+        qtbot.waitUntil(lambda: wizard.session_id is not None, timeout=TIMEOUT_MS)
+        # the window's feed, two frames per held pose: one just after the jump, one a while later
+        lives = []
+        for k in range(BOARD_POSES):
+            for offset in (0.3, 1.0):
+                lives.append(feed(qtbot, ctl, sim_frame(cam, clock, (k + offset / BOARD_HOLD_S) * BOARD_HOLD_S)))
+        assert sum(v.left_ok and v.right_ok for v in lives) >= 0.9 * len(lives)
+        captured = [v.captured for v in lives if v.captured is not None]
+        assert len(captured) >= 15, [v.gate.reason for v in lives]  # auto capture, no tap
+        qtbot.waitUntil(lambda: len(wizard.numbers) == len(captured), timeout=TIMEOUT_MS)
+        assert all(wizard.meters[name].value() >= 0.8 for name in ("x", "y", "size", "skew")), \
+            {name: m.value() for name, m in wizard.meters.items()}
+        assert wizard.calibrate_button.isEnabled()
+        with qtbot.waitSignal(worker.sigReport, timeout=20_000) as blocker:
+            qtbot.mouseClick(wizard.calibrate_button, LEFT)
+        rep = blocker.args[0].report
+        assert rep.rms_stereo < 1.0 and rep.epipolar_error_px < 1.0, (rep.rms_stereo, rep.epipolar_error_px)
+        # and it is the simulated rig's calibration
+        truth = cam.calibration()
+        assert rep.calibration.M1[0, 0] == pytest.approx(truth.M1[0, 0], rel=0.02)
+        assert rep.calibration.baseline_m == pytest.approx(truth.baseline_m, abs=0.002)
+    finally:
+        with qtbot.waitSignal(ctl.sigBoardShown, timeout=TIMEOUT_MS) as hidden:
+            ctl.close()
+    assert hidden.args == [None] and cam.shown_board is None
+    assert worker.isFinished()
+
+
+def test_after_a_few_seconds_without_a_board_the_capture_page_says_what_to_do(qtbot, rig):
+    ctl, wizard = rig
+    clock = SimClock()
+    cam = SimStereoCamera(scenario="static", clock=clock)  # the desk, no board on it
+    cam.connect()
+    early = [feed(qtbot, ctl, sim_frame(cam, clock, t)) for t in (0.0, 1.0, NO_BOARD_HINT_S - 0.5)]
+    assert not any(v.left_ok or v.right_ok for v in early)
+    assert "does not see the whole board" in wizard.gate_label.text()
+    assert NO_BOARD_HINT not in wizard.gate_label.text()
+    feed(qtbot, ctl, sim_frame(cam, clock, NO_BOARD_HINT_S + 0.1))
+    assert wizard.gate_label.text().startswith(NO_BOARD_HINT)
+    assert "Save printable board" in wizard.gate_label.text() and "both cameras" in wizard.gate_label.text()
+    assert wizard.board_missing_s() == pytest.approx(NO_BOARD_HINT_S + 0.1)
+    cam.show_board(BOARD)  # the board appears: back to the gate's own words
+    live = feed(qtbot, ctl, sim_frame(cam, clock, NO_BOARD_HINT_S + 0.2))
+    assert live.left_ok and NO_BOARD_HINT not in wizard.gate_label.text() and wizard.board_missing_s() == 0.0
+
+
+def test_save_printable_board_writes_the_chosen_board_where_the_user_says(qtbot, tmp_path, monkeypatch):
+    wizard = CalibrationWizard()
+    qtbot.addWidget(wizard)
+    wizard.fields["square_mm"].setValue(30.0)
+    asked = []
+
+    def answer(parent, caption, start, filters, selected=""):
+        asked.append((start, filters))
+        return str(tmp_path / "my board"), PRINT_FILTERS[1]  # no suffix typed, the PNG filter chosen
+
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", answer)
+    assert wizard.print_button.height() >= 40 and wizard.print_button.isVisibleTo(wizard)
+    qtbot.mouseClick(wizard.print_button, LEFT)
+    assert asked and asked[0][0].endswith("chessboard_9x6_30mm.pdf") and "*.png" in asked[0][1]
+    path = tmp_path / "my board.png"
+    assert wizard.last_printed == path and path.is_file()
+    assert read_png_dpi(path) == pytest.approx((300.0, 300.0), abs=0.01)
+    assert not wizard.print_label.isHidden() and wizard.board_help.isHidden()
+    assert "must be 30 mm" in wizard.print_label.text() and "100 %" in wizard.print_label.text()
+    wizard.fields["square_mm"].setValue(25.0)  # another board: the note about the old one goes
+    assert wizard.print_label.isHidden() and not wizard.board_help.isHidden()
+    # a folder that is not there: said where the user looks, with what to do
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
+                        lambda *a, **k: (str(tmp_path / "gone" / "board.pdf"), PRINT_FILTERS[0]))
+    qtbot.mouseClick(wizard.print_button, LEFT)
+    assert "could not save" in wizard.print_label.text() and "choose another folder" in wizard.print_label.text()
+    # cancelled: nothing happens
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", lambda *a, **k: ("", ""))
+    qtbot.mouseClick(wizard.print_button, LEFT)
+    assert wizard.last_printed == path
 
 
 # ------------------------------------------------------------------------------- the window

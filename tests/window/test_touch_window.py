@@ -283,3 +283,30 @@ def test_a_modal_dialog_without_stop_pauses_the_arm_and_says_so(qtbot, small):
         assert not small.session.controller.paused
     finally:
         small.stop()
+
+
+def test_the_calibration_wizard_carries_stop_and_the_simulated_desk_shows_it_a_board(qtbot, small):
+    small.start()
+    try:
+        small.on_open_calibration()
+        ctl = small.calibration_controller
+        wizard = ctl.wizard
+        qtbot.waitExposed(wizard)
+        qtbot.mouseClick(wizard.stop_button, QtCore.Qt.MouseButton.LeftButton)
+        assert not small.session.controller.armed and small.estop_button.engaged
+        assert wizard.estop_engaged and wizard.isVisible()
+        small.on_rearm_requested()
+        assert not wizard.estop_engaged
+        # starting a capture session holds a board up in front of the simulated cameras
+        ctl.on_start_requested(ctl.board or wizard_board(wizard))
+        qtbot.waitUntil(lambda: small.session.camera.shown_board is not None, timeout=3000)
+        ctl.close()
+        qtbot.waitUntil(lambda: small.session.camera.shown_board is None, timeout=3000)
+    finally:
+        small.stop()
+
+
+def wizard_board(wizard):
+    from core.vision.stereo_calibration import ChessboardSpec
+
+    return ChessboardSpec(9, 6, 0.025)
