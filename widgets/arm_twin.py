@@ -21,6 +21,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from widgets.camera_view import marker_label
 from widgets.joint_readout import limit_level
 
 M_TO_CM = 100.0
@@ -46,6 +47,20 @@ LEVEL_COLOURS = {"ok": MEASURED_COLOUR, "warn": (255, 140, 0), "limit": (235, 30
 LEVEL_DOT_PX = {"ok": 10, "warn": 17, "limit": 20}  # warn/limit dots also get a white ring
 
 SAME_POINT_TOL_M = 1e-6  # a point that moved less has not moved: the plots are in centimetres
+
+# Labels in the views: ids beside their dots, kept inside the view box and apart
+LABEL_GAP_PX = 2.0  # between a label and its dot, and between stacked labels
+LABEL_DOT_PX = 9.0  # a marker dot's size: other labels keep off it
+LABEL_STACK_STEPS = 3  # how many label heights further out a crowded label may go
+LABEL_MARGIN_PX = 1  # QGraphicsTextItem's document margin (its default, 4, wastes a small view)
+
+# The legend row under a twin
+LEGEND_ENTRY_GAP = "&nbsp;&nbsp;&nbsp;"  # between two entries on a line
+LEGEND_SAFETY_PX = 2.0  # measured and rendered line widths may differ by rounding
+
+PLOT_TITLE_PT = 8.0
+PLOT_TITLE_ROW_PX = 16  # pyqtgraph reserves 30 px for a title; an 8 pt one needs 16
+PLOT_MIN_SIZE = (160, 60)
 
 VIEW_MARGIN_FRACTION = 0.08  # configure_for: room around the workspace …
 VIEW_MARGIN_M = 0.02  # … plus this much
@@ -346,20 +361,138 @@ def joint_dot_positions(levels: Optional[Sequence[str]], anchors: Optional[Seque
     return np.array([p for _, _, p in found], dtype=float), [levels[i] for _, i, _ in found]
 
 
+def _swatch_words(colour: Sequence[int], glyph: str, text: str) -> list[str]:
+    """A coloured glyph and its text as legend words (HTML): the glyph stays with the first word."""
+    r, g, b = colour[:3]
+    words = [html.escape(w) for w in text.split()] or [""]
+    words[0] = (f'<span style="color: rgb({r},{g},{b}); font-weight: bold">{glyph}</span>'
+                f"&nbsp;{words[0]}")
+    return words
+
+
+def marker_entry(marker_id: int, base_p: Sequence[float]) -> tuple[str, ...]:
+    """One found marker as a legend entry (HTML words): its swatch, id and robot_base position
+    in cm, e.g. "■ 23: x 3.1 y 15.2 z 0.0 cm" (the camera views' label, :func:`marker_label`)."""
+    text = marker_label(int(marker_id), base_p)
+    head, _, rest = text.partition(" ")  # "23:", "x 3.1 y 15.2 z 0.0 cm"
+    if not rest:
+        return tuple(_swatch_words(MARKER_COLOUR, "■", head))
+    coords = rest.split(" ")
+    # "x 3.1" never breaks between the letter and its number
+    words = [html.escape(f"{coords[i]}\u00a0{coords[i + 1]}") for i in range(0, len(coords) - 1, 2)]
+    if len(coords) % 2:
+        words[-1] += html.escape(f"\u00a0{coords[-1]}")  # "cm" stays with z
+    return tuple(_swatch_words(MARKER_COLOUR, "■", head)) + tuple(words)
+
+
+def legend_entries(measured_label: str,
+                   markers: Sequence[tuple[str, ...]] = ()) -> list[tuple[str, ...]]:
+    """The twins' legend (chains, target, limit levels, aimed point, markers) as entries, each a
+    tuple of HTML words. ``markers`` (from :func:`marker_entry`) replace the plain "■ markers"
+    entry with each found marker's id and position."""
+    def swatch(colour, glyph: str, text: str) -> tuple[str, ...]:
+        return tuple(_swatch_words(colour, glyph, text))
+
+    target = swatch(REACHABLE_COLOUR, "+", "target") + ("/",) + swatch(UNREACHABLE_COLOUR, "+",
+                                                                       "out of reach")
+    limits = swatch(LEVEL_COLOURS["warn"], "●", "near") + ("/",) + swatch(LEVEL_COLOURS["limit"],
+                                                                         "●", "at limit")
+    entries = [swatch(COMMANDED_COLOUR, "- -", "commanded"),
+               swatch(MEASURED_COLOUR, "━●", measured_label), target, limits,
+               swatch(AIMED_COLOUR, "○", "aimed")]
+    return entries + (list(markers) if markers else [swatch(MARKER_COLOUR, "■", "markers")])
+
+
 def legend_html(measured_label: str) -> str:
-    """The twins' legend row (rich text): chains, target, limit levels, aimed point, markers."""
-    def swatch(colour, glyph: str, text: str) -> str:
-        r, g, b = colour[:3]
-        return (f'<span style="color: rgb({r},{g},{b}); font-weight: bold">{glyph}</span>'
-                f"&nbsp;{html.escape(text)}")
-    target = swatch(REACHABLE_COLOUR, "+", "target") + " / " + swatch(
-        UNREACHABLE_COLOUR, "+", "out of reach")
-    limits = swatch(LEVEL_COLOURS["warn"], "●", "near") + " / " + swatch(
-        LEVEL_COLOURS["limit"], "●", "at limit")
-    items = [swatch(COMMANDED_COLOUR, "- -", "commanded"),
-             swatch(MEASURED_COLOUR, "━●", measured_label), target, limits,
-             swatch(AIMED_COLOUR, "○", "aimed"), swatch(MARKER_COLOUR, "■", "markers")]
-    return "&nbsp;&nbsp; ".join(items)
+    """The twins' legend row (rich text) on one line: chains, target, limit levels, aimed
+    point, markers. :class:`LegendLabel` breaks it into lines that fit."""
+    return LEGEND_ENTRY_GAP.join(" ".join(e) for e in legend_entries(measured_label))
+
+
+def break_lines(entries: Sequence[Sequence[float]], width: float, entry_gap: float,
+                word_gap: float) -> list[list[tuple[int, int, int]]]:
+    """Fill lines of ``width`` px greedily with entries given as their words' widths (px).
+
+    Lines break between entries; an entry wider than a whole line breaks between its words
+    (a single word wider than the line gets a line of its own). Returns the lines, each a list
+    of (entry index, first word, end word) spans.
+    """
+    lines: list[list[tuple[int, int, int]]] = [[]]
+    used = 0.0
+    for i, words in enumerate(entries):
+        total = float(sum(words)) + word_gap * max(0, len(words) - 1)
+        gap = entry_gap if lines[-1] else 0.0
+        if used + gap + total <= width:
+            lines[-1].append((i, 0, len(words)))
+            used += gap + total
+            continue
+        if total <= width:  # on a line of its own
+            lines.append([(i, 0, len(words))])
+            used = total
+            continue
+        if lines[-1]:
+            lines.append([])
+        start, run = 0, 0.0
+        for j, w in enumerate(words):
+            if j > start and run + word_gap + w > width:
+                lines[-1].append((i, start, j))
+                lines.append([])
+                start, run = j, float(w)
+            else:
+                run = float(w) if j == start else run + word_gap + w
+        lines[-1].append((i, start, len(words)))
+        used = run
+    return [line for line in lines if line]
+
+
+def place_labels(anchors: Sequence[tuple[float, float]], sizes: Sequence[tuple[float, float]],
+                 bounds: tuple[float, float, float, float], gap: float = LABEL_GAP_PX,
+                 dot_px: float = LABEL_DOT_PX) -> list[tuple[float, float]]:
+    """Top-left corners for labels of ``sizes`` (w, h) beside their ``anchors`` (x, y), all in
+    screen pixels (y down): inside ``bounds`` (x0, y0, x1, y1) and clear of each other.
+
+    Each label tries the places around its anchor nearest first — upper right, upper left,
+    lower right, lower left, then stacked further out — and takes the first one inside the
+    bounds that overlaps no label placed before it nor another anchor's dot (``dot_px``
+    square). When none is clear (a crowded, tiny view) it takes the one that overlaps least,
+    moved inside the bounds.
+    """
+    x0, y0, x1, y1 = bounds
+    half = 0.5 * dot_px
+    dots = [(ax - half, ay - half, ax + half, ay + half) for ax, ay in anchors]
+    placed: list[tuple[float, float, float, float]] = []
+    out = []
+
+    def overlap(a, b) -> float:
+        w = min(a[2], b[2]) - max(a[0], b[0])
+        h = min(a[3], b[3]) - max(a[1], b[1])
+        return w * h if w > 0 and h > 0 else 0.0
+
+    for k, ((ax, ay), (w, h)) in enumerate(zip(anchors, sizes)):
+        xs = [ax + gap, ax - gap - w, ax + gap + (w + gap), ax - gap - w - (w + gap)]
+        ys = [ay - gap - h, ay + gap] + [y for n in range(1, LABEL_STACK_STEPS + 1)
+                                         for y in (ay - gap - h - n * (h + gap), ay + gap + n * (h + gap))]
+        candidates = [(x, y) for y in ys for x in xs]
+        # nearest first; the order above (upper right, upper left, …) breaks ties
+        candidates.sort(key=lambda c: math.hypot(c[0] + 0.5 * w - ax, c[1] + 0.5 * h - ay))
+        best, best_cost = None, math.inf
+        for x, y in candidates:
+            inside = x >= x0 and y >= y0 and x + w <= x1 and y + h <= y1
+            if not inside:  # moved in; a label larger than the view keeps its start in it
+                x, y = max(x0, min(x, x1 - w)), max(y0, min(y, y1 - h))
+            rect = (x, y, x + w, y + h)
+            cost = (1e3 * sum(overlap(rect, r) for r in placed)
+                    + sum(overlap(rect, d) for i, d in enumerate(dots) if i != k))
+            if not inside:
+                cost += 1e-3  # a moved candidate only when no untouched one is as good
+            if cost < best_cost:
+                best, best_cost = (x, y), cost
+                if cost == 0.0:
+                    break
+        x, y = best
+        placed.append((x, y, x + w, y + h))
+        out.append((x, y))
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -376,13 +509,44 @@ def _grid_pairs(step: float, extent: float) -> tuple[np.ndarray, np.ndarray]:
     return np.array(xs), np.array(ys)
 
 
-def _make_plot(title: str, x_label: str, y_label: str) -> pg.PlotWidget:
-    plot = pg.PlotWidget()
-    plot.setMinimumSize(160, 120)
+class _Plot(pg.PlotWidget):
+    """A twin view: a title that names the units (no axis labels, whose rows a small view
+    needs for the arm), the longest of its titles that fits its width."""
+
+    def __init__(self, titles: Sequence[str]) -> None:
+        self.titles = tuple(titles)  # longest first
+        super().__init__()
+
+    def fit_title(self) -> None:
+        """Show the longest title that fits the title row (the last one when none does)."""
+        item = self.getPlotItem()
+        if item is None:
+            return  # pyqtgraph resizes before the plot item exists
+        label = item.titleLabel
+        # from the widget, not the title item: the plot's layout is updated after this resize
+        room = self.width() - item.getAxis("left").width() - 4.0
+        font = QtGui.QFont(self.font())
+        font.setPointSizeF(PLOT_TITLE_PT)
+        metrics = QtGui.QFontMetricsF(font)
+        margin = 2.0 * label.item.document().documentMargin()
+        title = next((t for t in self.titles if metrics.horizontalAdvance(t) + margin <= room),
+                     self.titles[-1])
+        if title != label.text:
+            item.setTitle(title, size=f"{PLOT_TITLE_PT:g}pt")
+            item.layout.setRowFixedHeight(0, PLOT_TITLE_ROW_PX)
+            label.setMaximumHeight(PLOT_TITLE_ROW_PX)
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        super().resizeEvent(event)
+        self.fit_title()
+
+
+def _make_plot(*titles: str) -> _Plot:
+    """A fixed-range, aspect-locked view with a 10 cm grid; ``titles`` longest first."""
+    plot = _Plot(titles)
+    plot.setMinimumSize(*PLOT_MIN_SIZE)
     item = plot.getPlotItem()
-    item.setTitle(title, size="8pt")
-    item.setLabel("bottom", x_label)
-    item.setLabel("left", y_label)
+    plot.fit_title()
     # pyqtgraph's showGrid() costs ~6 ms per view per repaint in software rendering; a fixed
     # 10 cm grid drawn as one curve of line pairs costs a fraction of that.
     grid = pg.PlotCurveItem(*_grid_pairs(GRID_STEP_CM, GRID_EXTENT_CM), connect="pairs",
@@ -431,6 +595,7 @@ class _ViewItems:
         self.base = pg.ScatterPlotItem([0.0], [0.0], symbol="s", size=12,
                                        brush=pg.mkBrush(90, 90, 90), pen=pg.mkPen("w"))
         self.marker_labels: list[pg.TextItem] = []
+        self._label_points = np.zeros((0, 2))  # where the shown labels' dots are, (n,2) view cm
         self.joints.setVisible(False)
         self.extra_points.setVisible(False)
         for z, item in enumerate((self.workspace, self.structure, self.preview, self.base,
@@ -439,20 +604,54 @@ class _ViewItems:
                                   self.target)):
             item.setZValue(z)
             plot.addItem(item)
+        self.view_box = plot.getPlotItem().vb
+        # a label's size in view units changes with the view's scale: lay them out again
+        self.view_box.sigTransformChanged.connect(self.layout_labels)
 
     def set_marker_labels(self, ids: Sequence[int], xy_cm: np.ndarray) -> None:
+        """Label the marker dots at ``xy_cm`` (n,2) with their ids, laid out by
+        :meth:`layout_labels`."""
         while len(self.marker_labels) < len(ids):
-            label = pg.TextItem(color=MARKER_COLOUR, anchor=(0.0, 1.0))
+            label = pg.TextItem(color=MARKER_COLOUR, anchor=(0.0, 0.0),
+                                fill=pg.mkBrush(0, 0, 0, 140))
+            label.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
             label.setZValue(20)
-            self.plot.addItem(label)
+            self.plot.addItem(label, ignoreBounds=True)
             self.marker_labels.append(label)
-        for label, marker_id, (x, y) in zip(self.marker_labels, ids, xy_cm):
-            label.setText(str(marker_id))
-            label.setPos(float(x), float(y))
+        for label, marker_id in zip(self.marker_labels, ids):
+            if label.toPlainText() != str(marker_id):
+                label.setText(str(marker_id))
             if not label.isVisible():  # TextItem.setVisible(True) re-computes its transform
                 label.setVisible(True)
         for label in self.marker_labels[len(ids):]:
-            label.setVisible(False)
+            if label.isVisible():
+                label.setVisible(False)
+        self._label_points = np.asarray(xy_cm, dtype=float).reshape(-1, 2)[:len(ids)]
+        self.layout_labels()
+
+    def shown_labels(self) -> list[pg.TextItem]:
+        """The marker labels in use, in id order."""
+        return self.marker_labels[:len(self._label_points)]
+
+    def layout_labels(self, *_: object) -> None:
+        """Place each label beside its dot, inside the view box and off the other labels
+        (:func:`place_labels`, in scene pixels)."""
+        n = len(self._label_points)
+        if n == 0:
+            return
+        vb = self.view_box
+        box = vb.sceneBoundingRect()
+        if box.width() <= 0 or box.height() <= 0:
+            return  # not laid out yet: sigTransformChanged comes back
+        anchors = []
+        for x, y in self._label_points:
+            p = vb.mapViewToScene(QtCore.QPointF(float(x), float(y)))
+            anchors.append((p.x(), p.y()))
+        labels = self.marker_labels[:n]
+        sizes = [(r.width(), r.height()) for r in (lb.textItem.boundingRect() for lb in labels)]
+        corners = place_labels(anchors, sizes, (box.left(), box.top(), box.right(), box.bottom()))
+        for label, (x, y) in zip(labels, corners):
+            label.setPos(vb.mapSceneToView(QtCore.QPointF(x, y)))
 
 
 def _xy(points: Optional[np.ndarray], cols: slice = slice(0, 2)) -> tuple[np.ndarray, np.ndarray]:
@@ -487,19 +686,122 @@ def _finite_rows(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x[keep], y[keep]
 
 
-def make_legend_label() -> QtWidgets.QLabel:
+class LegendLabel(QtWidgets.QLabel):
+    """The legend under a twin: entries (rich text) that wrap between entries, never inside
+    one unless it is wider than the whole row, so no entry is ever cut.
+
+    The label breaks its lines itself (:func:`break_lines`) for its width, on every resize
+    and on :meth:`set_entries`; its height follows the line count. (QLabel's own word wrap
+    would make it a height-for-width widget, which makes parent layouts over-allocate height.)
+
+    Signals: none.
+    """
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._entries: list[tuple[str, ...]] = []
+        self._lines: list[list[tuple[int, int, int]]] = []
+        self._widths: dict[str, float] = {}
+        self._broken_for = -1  # the text width the lines were broken for
+        self.setTextFormat(QtCore.Qt.TextFormat.RichText)
+        self.setWordWrap(False)
+        # the width is the twin's; the height is what the lines need
+        self.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
+                           QtWidgets.QSizePolicy.Policy.Fixed)
+        font = self.font()
+        font.setPointSizeF(max(7.0, font.pointSizeF() * 0.85))
+        self.setFont(font)
+        # same dark background as the plots, so the plot colours read the same
+        self.setStyleSheet("QLabel { background: black; color: #dddddd; }")
+        self.setContentsMargins(4, 2, 4, 2)  # not in the style sheet: contentsRect() holds them
+
+    def set_entries(self, entries: Sequence[Sequence[str]]) -> None:
+        """Show these entries, each a sequence of HTML words (:func:`legend_entries`)."""
+        entries = [tuple(e) for e in entries]
+        if entries == self._entries:
+            return
+        self._entries = entries
+        self._relayout(force=True)
+
+    def entries(self) -> list[tuple[str, ...]]:
+        """The entries as set."""
+        return list(self._entries)
+
+    def line_count(self) -> int:
+        """How many lines the legend takes at its current width."""
+        return len(self._lines)
+
+    def lines_text(self) -> list[str]:
+        """Each line as plain text (for tests and accessibility)."""
+        return [_plain(html_line) for html_line in self.text().split("<br>")] if self.text() else []
+
+    def height_for_width(self, width: int) -> int:
+        """The height (px) the legend takes when the label is ``width`` px wide."""
+        m = self.contentsMargins()
+        lines = break_lines(self._entry_widths(), max(1.0, width - m.left() - m.right()
+                                                      - LEGEND_SAFETY_PX), *self._gaps())
+        doc = QtGui.QTextDocument()  # as QLabel lays out rich text
+        doc.setDefaultFont(self.font())
+        doc.setDocumentMargin(0)
+        doc.setHtml("<br>".join(["x"] * max(1, len(lines))))
+        return math.ceil(doc.size().height()) + m.top() + m.bottom()
+
+    def text_width(self) -> int:
+        """The width (px) the lines must fit: the label's minus its margins."""
+        return self.contentsRect().width()
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        super().resizeEvent(event)
+        if event.size().width() != event.oldSize().width():
+            self._relayout()
+
+    def changeEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        super().changeEvent(event)
+        if event.type() == QtCore.QEvent.Type.FontChange:
+            self._widths.clear()
+            self._relayout(force=True)
+
+    def _measure(self, fragment: str) -> float:
+        width = self._widths.get(fragment)
+        if width is None:
+            if len(self._widths) > 512:  # marker positions make new words every frame
+                self._widths.clear()
+            doc = QtGui.QTextDocument()
+            doc.setDefaultFont(self.font())
+            doc.setDocumentMargin(0)
+            doc.setHtml(fragment)
+            width = self._widths[fragment] = doc.idealWidth()
+        return width
+
+    def _entry_widths(self) -> list[list[float]]:
+        return [[self._measure(w) for w in entry] for entry in self._entries]
+
+    def _gaps(self) -> tuple[float, float]:
+        """(between entries, between words) in px."""
+        metrics = QtGui.QFontMetricsF(self.font())
+        return 3.0 * metrics.horizontalAdvance("\u00a0"), metrics.horizontalAdvance(" ")
+
+    def _relayout(self, force: bool = False) -> None:
+        width = self.text_width()
+        if not force and width == self._broken_for:
+            return
+        self._broken_for = width
+        self._lines = break_lines(self._entry_widths(), max(1.0, width - LEGEND_SAFETY_PX),
+                                  *self._gaps())
+        text = "<br>".join(LEGEND_ENTRY_GAP.join(" ".join(self._entries[i][a:b]) for i, a, b in line)
+                           for line in self._lines)
+        if text != self.text():
+            self.setText(text)  # updates the geometry: a new line count gives a new height
+
+
+def _plain(fragment: str) -> str:
+    """Plain text of an HTML fragment, non-breaking spaces as spaces."""
+    return QtGui.QTextDocumentFragment.fromHtml(fragment).toPlainText().replace("\u00a0", " ")
+
+
+def make_legend_label() -> LegendLabel:
     """The legend row under a twin (2D or 3D): small rich text on the plots' black."""
-    label = QtWidgets.QLabel()
-    label.setTextFormat(QtCore.Qt.TextFormat.RichText)
-    # no word wrap (a height-for-width label makes parent layouts over-allocate height);
-    # when narrow the least important entries at the end are cut off instead
-    label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Fixed)
-    font = label.font()
-    font.setPointSizeF(max(7.0, font.pointSizeF() * 0.85))
-    label.setFont(font)
-    # same dark background as the plots, so the plot colours read the same
-    label.setStyleSheet("QLabel { background: black; color: #dddddd; padding: 2px 4px; }")
-    return label
+    return LegendLabel()
 
 
 class TwinBase:
@@ -550,8 +852,25 @@ class TwinBase:
         self._measured_label = text
         self._update_legend()
 
+    _marker_entries: tuple[tuple[str, ...], ...] = ()  # the legend's rows for found markers
+
     def _update_legend(self) -> None:
-        self.legend_label.setText(legend_html(self._measured_label))
+        self.legend_label.set_entries(legend_entries(self._measured_label, self._marker_entries))
+
+    def _show_marker_positions(self, markers: Mapping[int, np.ndarray]) -> None:
+        """Each marker's id and position (cm) in the legend: readable at any size."""
+        entries = tuple(marker_entry(i, markers[i]) for i in sorted(markers))
+        if entries != self._marker_entries:
+            self._marker_entries = entries
+            self._update_legend()
+
+    def marker_texts(self) -> list[str]:
+        """The markers' rows in the legend as plain text, e.g. "■ 23: x 3.1 y 15.2 z 0.0 cm"."""
+        return [_plain(" ".join(e)) for e in self._marker_entries]
+
+    def legend_text(self) -> str:
+        """The legend as plain text, one line per row shown (for tests and accessibility)."""
+        return "\n".join(self.legend_label.lines_text())
 
     def set_target(self, p: Optional[Sequence[float]], reachable: bool = True) -> None:
         """Draw the target point (m), green when reachable, red when not."""
@@ -591,7 +910,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
     the measured, else commanded, tool point, unless pinned with :meth:`set_side_azimuth`);
     every 3D point is projected onto it with :func:`side_view_coords`. The two plots sit side
     by side on wide widgets and stacked on tall ones. Inputs are metres in robot_base; the
-    plots are in centimetres.
+    plots are in centimetres. Marker ids label their dots inside each view, laid out so they
+    never overlap (:func:`place_labels`); the legend under the plots (:class:`LegendLabel`)
+    wraps to fit and lists each marker's id and position in cm.
 
     Signals: none (display only).
     """
@@ -617,8 +938,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._level_pen = {"ok": pg.mkPen("k", width=1), "warn": pg.mkPen("w", width=2),
                            "limit": pg.mkPen("w", width=2)}
 
-        self.top_plot = _make_plot("Top view", "x (cm)", "y (cm)")
-        self.side_plot = _make_plot("Side view (arm plane)", "s (cm)", "z (cm)")
+        self.top_plot = _make_plot("Top view (x, y cm)", "Top view (cm)", "Top")
+        self.side_plot = _make_plot("Side view: arm plane (s, z cm)", "Side view (s, z cm)",
+                                    "Side view", "Side")
         self._top = _ViewItems(self.top_plot)
         self._side = _ViewItems(self.side_plot)
 
@@ -761,7 +1083,8 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         _set_curve(self._side.preview, *self._side_xy(self._preview))
 
     def set_markers(self, points: Mapping[int, np.ndarray]) -> None:
-        """Draw marker positions {id: (3,) m} as labelled dots in both views."""
+        """Draw marker positions {id: (3,) m} as dots with their ids in both views, and list
+        each one's id and position (x, y, z cm in robot_base) in the legend."""
         markers = {int(k): np.asarray(v, dtype=float).reshape(3) for k, v in points.items()}
         if same_marker_points(markers, self._markers) and not self.redraw_unchanged:
             return
@@ -772,10 +1095,11 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         _set_points(self._top.markers, top[:, 0], top[:, 1])
         self._top.set_marker_labels(ids, top)
         self._draw_side_markers()
+        self._show_marker_positions(self._markers)
 
-    def legend_text(self) -> str:
-        """The legend as plain text (for tests and accessibility)."""
-        return QtGui.QTextDocumentFragment.fromHtml(self.legend_label.text()).toPlainText()
+    def marker_labels(self, view: str = "top") -> list[pg.TextItem]:
+        """The id labels shown in ``view`` ("top" or "side"), in id order."""
+        return (self._top if view == "top" else self._side).shown_labels()
 
     def joint_dots(self, view: str = "top") -> list[tuple[float, float, str]]:
         """The joint dots drawn in ``view``: (x, y) cm in "top", (s, z) cm in "side", and the

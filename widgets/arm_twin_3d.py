@@ -57,6 +57,10 @@ ZOOM_STEP = 1.25
 TARGET_CROSS_HALF_CM = 2.0
 CAMERA_MARGIN = 0.9  # the home view shows the workspace's bounding sphere with this margin
 
+VIEW_MIN_SIZE = (160, 60)
+TWIN_MIN_SIZE = (240, 120)  # the main window's twin area is never smaller (TWIN_MIN_HEIGHT_PX)
+BUTTON_SPACING_PX = 2
+
 _cached: Optional[tuple[bool, str]] = None
 
 
@@ -212,7 +216,7 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
 
         self.view = gl.GLViewWidget()
         self.view.setBackgroundColor("k")
-        self.view.setMinimumSize(160, 120)
+        self.view.setMinimumSize(*VIEW_MIN_SIZE)
         self.grid = gl.GLGridItem(color=(255, 255, 255, 40))
         self.grid.setSpacing(DESK_GRID_STEP_CM, DESK_GRID_STEP_CM)
         self.grid.setSize(100.0, 100.0)
@@ -264,9 +268,11 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
         self._update_legend()
 
         self.buttons: dict[str, QtWidgets.QPushButton] = {}
-        column = QtWidgets.QVBoxLayout()
-        column.setContentsMargins(0, 0, 0, 0)
-        column.setSpacing(2)
+        # the finger-sized buttons fill a grid beside the view: one column when the twin is
+        # tall, more when it is short (the twin is ~150 px tall in an 800x480 window)
+        self._button_grid = QtWidgets.QGridLayout()
+        self._button_grid.setContentsMargins(0, 0, 0, 0)
+        self._button_grid.setSpacing(BUTTON_SPACING_PX)
         for key, text, slot in (("reset", "Reset", self.reset_camera),
                                 ("top", "Top", lambda: self.look_from("top")),
                                 ("side", "Side", lambda: self.look_from("side")),
@@ -274,8 +280,12 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
                                 ("zoom_out", "−", lambda: self.zoom(ZOOM_STEP))):
             button = touch_button(text)
             button.clicked.connect(slot)
-            column.addWidget(button)
             self.buttons[key] = button
+        self._button_rows = 0
+        self._arrange_buttons(len(self.buttons))
+        column = QtWidgets.QVBoxLayout()
+        column.setContentsMargins(0, 0, 0, 0)
+        column.addLayout(self._button_grid)
         column.addStretch(1)
         row = QtWidgets.QHBoxLayout()
         row.setContentsMargins(0, 0, 0, 0)
@@ -287,6 +297,9 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
         outer.setSpacing(0)
         outer.addLayout(row, 1)
         outer.addWidget(self.legend_label)
+        # set, not the layout's: with one column of buttons that would be ~280 px, and a
+        # short stack could never give the twin the height that makes the buttons re-flow
+        self.setMinimumSize(*TWIN_MIN_SIZE)
         self.view.installEventFilter(self)
         self.reset_camera()
 
@@ -374,7 +387,8 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
         self.preview.setData(pos=segment_pairs(pts))
 
     def set_markers(self, points: Mapping[int, np.ndarray]) -> None:
-        """Draw marker positions {id: (3,) m} as labelled dots."""
+        """Draw marker positions {id: (3,) m} as dots with their ids, and list each one's id and
+        position (x, y, z cm in robot_base) in the legend."""
         markers = {int(k): np.asarray(v, dtype=float).reshape(3) for k, v in points.items()}
         if same_marker_points(markers, self._markers) and not self.redraw_unchanged:
             return
@@ -392,10 +406,7 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
             label.setVisible(True)
         for label in self._marker_labels[len(ids):]:
             label.setVisible(False)
-
-    def legend_text(self) -> str:
-        """The legend as plain text (for tests and accessibility)."""
-        return QtGui.QTextDocumentFragment.fromHtml(self.legend_label.text()).toPlainText()
+        self._show_marker_positions(self._markers)
 
     def reset_camera(self) -> None:
         """Back to the home view: from the front right, a little above, the whole workspace."""
@@ -469,6 +480,37 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
     def sizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
         """As the 2D twin's, so the two swap in a layout without a jump."""
         return QtCore.QSize(480, 260)
+
+    def button_rows(self) -> int:
+        """How many rows the view buttons are arranged in (1 to 5)."""
+        return self._button_rows
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        """Re-flow the buttons to the new height (before the layout places them)."""
+        self._fit_buttons(event.size())
+        super().resizeEvent(event)
+
+    def _update_legend(self) -> None:
+        super()._update_legend()
+        self._fit_buttons(self.size())  # more legend lines leave less height for the buttons
+
+    def _fit_buttons(self, size: QtCore.QSize) -> None:
+        """As many button rows as the height beside the view holds (at least one)."""
+        if not hasattr(self, "_button_grid"):
+            return  # the legend is set up before the buttons
+        room = size.height() - self.legend_label.height_for_width(size.width())
+        button_h = max(b.minimumSizeHint().height() for b in self.buttons.values())
+        rows = (room + BUTTON_SPACING_PX) // (button_h + BUTTON_SPACING_PX)
+        self._arrange_buttons(max(1, min(len(self.buttons), rows)))
+
+    def _arrange_buttons(self, rows: int) -> None:
+        if rows == self._button_rows:
+            return
+        self._button_rows = rows
+        for button in self.buttons.values():
+            self._button_grid.removeWidget(button)
+        for i, button in enumerate(self.buttons.values()):  # down the columns, in order
+            self._button_grid.addWidget(button, i % rows, i // rows)
 
     def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802
         """Note when the user moves the camera (drag, wheel), so a resize keeps their view;

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
@@ -18,6 +19,11 @@ DISPLAY_MODES = ("image", "disparity")
 DISPARITY_COLORMAP = "turbo"
 FOUND_COLOUR = (40, 220, 60)
 LOST_COLOUR = (255, 150, 0)
+STARTING_TEXT = "starting cameras…"  # the placeholder until the first image
+PLACEHOLDER_SCALE = 1.6  # the placeholder's font size, times the view's
+OVERLAY_MIN_PT = 7.0  # overlay text shrinks to fit a small view, never below this
+OVERLAY_INSET_PX = 4  # overlay text keeps this far from the edges of the area it sits in
+LABEL_GAP_VIEW_PX = 2.0  # between a marker's outline and its label (image px)
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +79,15 @@ def marker_label(marker_id: int, base_p: Optional[Sequence[float]]) -> str:
     return f"{marker_id}: x {x_cm:.1f} y {y_cm:.1f} z {z_cm:.1f} cm"
 
 
+_TOGETHER = re.compile(r"(?<=\b[xyzXYZ]) (?=[-+]?\d)|(?<=\d) (?=(?:mm|cm|m|px|fps)\b)")
+
+
+def keep_together(text: str) -> str:
+    """``text`` with the spaces in "x -12.3" and "412 mm" made non-breaking, so wrapped overlay
+    text never puts a coordinate's letter, its number and its unit on different lines."""
+    return _TOGETHER.sub("\u00a0", text)
+
+
 def disparity_to_index(disp_px: np.ndarray, max_disparity: float) -> np.ndarray:
     """Map disparities to uint8 colour-table indices: ≤ 0 or NaN → 0 (black), (0, max] → 1…255."""
     disp = np.asarray(disp_px, dtype=np.float32)
@@ -95,6 +110,8 @@ class _MarkerGraphics:
     """The reusable graphics items of one marker slot (outline, id, label)."""
 
     def __init__(self, view_box: pg.ViewBox) -> None:
+        self.view_box = view_box
+        self._label_anchor: tuple[float, float, float] | None = None  # centre x, top y, bottom y
         self.outline = pg.PlotCurveItem(antialias=True)
         self.id_text = pg.TextItem(anchor=(0.5, 0.5), color="w", fill=pg.mkBrush(0, 0, 0, 150))
         font = QtGui.QFont()
@@ -126,15 +143,40 @@ class _MarkerGraphics:
         if m.label != self.label_text.toPlainText():
             self.label_text.setText(m.label)
         if m.label:  # small views show ids only: no label to place
-            top = m.corners[np.argmin(m.corners[:, 1])]  # smallest row = highest on screen
-            self.label_text.setPos(float(centre[0]), float(top[1]) - 2.0)
+            # smallest row = highest on screen
+            self._label_anchor = (float(centre[0]), float(m.corners[:, 1].min()),
+                                  float(m.corners[:, 1].max()))
+            self.place_label()
         _set_visible(self.label_text, bool(m.label))
         self.outline.setVisible(True)
         _set_visible(self.id_text, True)
         self.marker_id = m.marker_id
         self.polygon = QtGui.QPolygonF([QtCore.QPointF(float(x), float(y)) for x, y in m.corners])
 
+    def place_label(self) -> None:
+        """Put the label above the marker (below it when there is no room above) and slide it
+        sideways to stay inside the view: a marker at the edge must not cut its label."""
+        if self._label_anchor is None or not self.label_text.toPlainText():
+            return
+        x, top, bottom = self._label_anchor
+        (x0, x1), (y0, y1) = self.view_box.viewRange()
+        px_w, px_h = self.view_box.viewPixelSize()  # image px per screen px
+        if not (math.isfinite(px_w) and math.isfinite(px_h)) or px_w <= 0 or px_h <= 0:
+            return
+        rect = self.label_text.textItem.boundingRect()
+        w, h = rect.width() * px_w, rect.height() * px_h  # in image px (y down: invertY)
+        if top - LABEL_GAP_VIEW_PX - h >= y0:
+            anchor_y, y = 1.0, top - LABEL_GAP_VIEW_PX
+        else:  # no room above: below the marker
+            anchor_y, y = 0.0, min(bottom + LABEL_GAP_VIEW_PX, max(y0, y1 - h))
+        x = min(max(x, x0 + 0.5 * w), x1 - 0.5 * w) if w < x1 - x0 else x0 + 0.5 * w
+        anchor = self.label_text.anchor
+        if (anchor.x(), anchor.y()) != (0.5, anchor_y):
+            self.label_text.setAnchor((0.5, anchor_y))
+        self.label_text.setPos(x, y)
+
     def hide(self) -> None:
+        self._label_anchor = None
         for item in (self.outline, self.id_text, self.label_text):
             item.setVisible(False)
         self.marker_id = None
@@ -245,12 +287,35 @@ class CameraView(QtWidgets.QWidget):
         self._fps_label.setStyleSheet("QLabel { background: rgba(0,0,0,150); color: white;"
                                       " padding: 2px 6px; }")
         self._fps_label.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents)
+        # margins, not style-sheet padding, and a bold font, not font-weight: what heightForWidth
+        # and the font metrics measure is then what is drawn
         self._probe_label = QtWidgets.QLabel("", self._graphics)
-        self._probe_label.setStyleSheet("QLabel { background: rgba(0,0,0,190); color: white;"
-                                        " font-weight: bold; padding: 2px 6px; }")
+        self._probe_label.setStyleSheet("QLabel { background: rgba(0,0,0,190); color: white; }")
+        self._probe_label.setContentsMargins(6, 2, 6, 2)
+        self._probe_label.setWordWrap(True)
         self._probe_label.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents)
         self._probe_label.hide()
+        probe_font = self._probe_label.font()
+        probe_font.setBold(True)
+        self._probe_label.setFont(probe_font)
+        self._probe_pt = probe_font.pointSizeF()  # the size it shrinks from
+        # "starting cameras…" until the first image: a black view looks broken
+        self._placeholder = QtWidgets.QLabel("", self._graphics)
+        self._placeholder.setStyleSheet("QLabel { background: transparent; color: #e0e0e0; }")
+        self._placeholder.setContentsMargins(6, 6, 6, 6)
+        self._placeholder.setWordWrap(True)
+        self._placeholder.setAlignment(QtCore.Qt.AlignmentFlag.AlignCenter)
+        self._placeholder.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents)
+        placeholder_font = self._placeholder.font()
+        placeholder_font.setBold(True)
+        placeholder_font.setPointSizeF(placeholder_font.pointSizeF() * PLACEHOLDER_SCALE)
+        self._placeholder.setFont(placeholder_font)
+        self._placeholder_pt = placeholder_font.pointSizeF()
+        self._placeholder_text = ""
+        self._placeholder.hide()
         self._graphics.installEventFilter(self)
+        # overlays that follow the image's place on screen: the colour bar's width, a resize
+        self._view_box.sigTransformChanged.connect(self._on_view_transform)
 
         header = QtWidgets.QHBoxLayout()
         header.setContentsMargins(4, 0, 0, 0)
@@ -263,6 +328,7 @@ class CameraView(QtWidgets.QWidget):
         layout.addLayout(header)
         layout.addWidget(self._graphics, 1)
         self._set_range(480, 640)
+        self.set_placeholder(STARTING_TEXT)
 
     # ----------------------------------------------------------------------------- public API
     @property
@@ -296,8 +362,11 @@ class CameraView(QtWidgets.QWidget):
     def show_image(self, bgr: np.ndarray) -> None:
         """Display a BGR, BGRA or grey uint8 image (kept to re-show after disparity mode).
 
-        The array already on screen (the same object) is not drawn again.
+        The array already on screen (the same object) is not drawn again. The first image
+        clears the placeholder (:meth:`set_placeholder`).
         """
+        if self._placeholder_text:
+            self.set_placeholder("")
         self._last_image = bgr
         if self._mode != "image":
             return
@@ -318,7 +387,12 @@ class CameraView(QtWidgets.QWidget):
         self._ensure_range(bgr.shape[0], bgr.shape[1])
 
     def show_disparity(self, disp_px: np.ndarray, max_disparity: float) -> None:
-        """Display a float32 disparity map (px) colour-mapped over 0…max; ≤ 0 shows black."""
+        """Display a float32 disparity map (px) colour-mapped over 0…max; ≤ 0 shows black.
+
+        The first map clears the placeholder (:meth:`set_placeholder`).
+        """
+        if self._placeholder_text:
+            self.set_placeholder("")
         self._last_disparity = (disp_px, max_disparity)
         if max_disparity != self._max_disparity:
             self._max_disparity = float(max_disparity)
@@ -347,10 +421,21 @@ class CameraView(QtWidgets.QWidget):
         return list(self._legend)
 
     def set_probe(self, x_px: float, y_px: float, text: str) -> None:
-        """Mark pixel (x, y) of the disparity map with a cross and ``text`` (shown in disparity mode)."""
-        self._probe = (float(x_px), float(y_px), text)
-        self._probe_mark.setData([float(x_px)], [float(y_px)])
-        self._probe_label.setText(text)
+        """Mark pixel (x, y) of the disparity map with a cross and ``text`` (shown in disparity mode).
+
+        The text sits in the image's bottom-left corner, wrapped and if need be in a smaller
+        font so it stays inside the image and off the colour bar. The same probe again is
+        skipped (the window sets it on every disparity frame).
+        """
+        probe = (float(x_px), float(y_px), text)
+        if probe == self._probe and not self.redraw_unchanged:
+            return
+        if self._probe is None or probe[:2] != self._probe[:2] or self.redraw_unchanged:
+            self._probe_mark.setData([probe[0]], [probe[1]])
+        self._probe = probe
+        shown = keep_together(text)
+        if shown != self._probe_label.text():
+            self._probe_label.setText(shown)
         self._update_probe_visibility()
 
     def clear_probe(self) -> None:
@@ -365,7 +450,7 @@ class CameraView(QtWidgets.QWidget):
 
     def probe_text(self) -> str:
         """The depth probe's text as shown ("" when hidden)."""
-        return "" if self._probe_label.isHidden() else self._probe_label.text()
+        return "" if self._probe_label.isHidden() or self._probe is None else self._probe[2]
 
     def _update_probe_visibility(self) -> None:
         visible = self._probe is not None and self._mode == "disparity"
@@ -406,6 +491,47 @@ class CameraView(QtWidgets.QWidget):
     def banner_text(self) -> str:
         """The banner's text ("" when hidden)."""
         return "" if self._banner.isHidden() else self._banner.text()
+
+    def set_placeholder(self, text: str) -> None:
+        """Show ``text`` large in the middle of the view until an image comes, e.g. "starting
+        cameras…" (the default) or "CAMERA MISSING — plug it in"; "" removes it.
+
+        The first :meth:`show_image` or :meth:`show_disparity` removes it too. The text wraps
+        and, in a small view, takes a smaller font, so it is never cut.
+        """
+        text = str(text)
+        if text == self._placeholder_text:
+            return
+        self._placeholder_text = text
+        self._placeholder.setText(text)
+        self._placeholder.setVisible(bool(text))
+        self._place_overlays()
+
+    def placeholder_text(self) -> str:
+        """The placeholder's text ("" when none is shown)."""
+        return self._placeholder_text
+
+    def image_rect(self) -> QtCore.QRect:
+        """Where the displayed image is in the graphics view's coordinates (px), within the
+        view box: the area overlay text such as the depth probe must stay in."""
+        rows, cols = self._shape if self._shape is not None else (480, 640)
+        image = QtCore.QRectF(-0.5, -0.5, float(cols), float(rows))
+        scene = self._view_box.mapViewToScene(image).boundingRect()
+        scene = scene.intersected(self._view_box.sceneBoundingRect())
+        return self._scene_rect_to_graphics(scene)
+
+    def colour_bar_rect(self) -> QtCore.QRect:
+        """Where the disparity colour bar (bar and labels) is in the graphics view's
+        coordinates (px); empty when it is hidden."""
+        if not self._colour_bar.isVisible():
+            return QtCore.QRect()
+        return self._scene_rect_to_graphics(self._colour_bar.sceneBoundingRect())
+
+    def overlay_widgets(self) -> dict[str, QtWidgets.QLabel]:
+        """The text overlays (children of :attr:`graphics_view`): "probe", "placeholder",
+        "fps" (for tests that measure them)."""
+        return {"probe": self._probe_label, "placeholder": self._placeholder,
+                "fps": self._fps_label}
 
     def marker_at(self, x_px: float, y_px: float) -> Optional[int]:
         """The id of the drawn marker whose outline contains (x, y) px, else None."""
@@ -480,6 +606,19 @@ class CameraView(QtWidgets.QWidget):
             self._place_overlays()
         return super().eventFilter(watched, event)
 
+    def _on_view_transform(self, *_: object) -> None:
+        """The image moved or was rescaled on screen: marker labels and the probe follow."""
+        for slot in self._markers:
+            if slot.marker_id is not None:
+                slot.place_label()
+        if not self._probe_label.isHidden():
+            self._place_probe()
+
+    def _scene_rect_to_graphics(self, rect: QtCore.QRectF) -> QtCore.QRect:
+        viewport = self._graphics.viewport()
+        polygon = self._graphics.mapFromScene(rect)  # viewport coordinates
+        return polygon.boundingRect().translated(viewport.mapTo(self._graphics, QtCore.QPoint(0, 0)))
+
     def _place_overlays(self) -> None:
         width = self._graphics.width()
         if not self._banner.isHidden():
@@ -489,10 +628,60 @@ class CameraView(QtWidgets.QWidget):
         self._fps_label.adjustSize()
         self._fps_label.move(4, self._graphics.height() - self._fps_label.height() - 4)
         self._fps_label.raise_()
+        if not self._placeholder.isHidden():
+            area = self._graphics.rect().adjusted(OVERLAY_INSET_PX, OVERLAY_INSET_PX,
+                                                  -OVERLAY_INSET_PX, -OVERLAY_INSET_PX)
+            size = _fit_text(self._placeholder, area.width(), area.height(), self._placeholder_pt)
+            self._placeholder.setGeometry(QtWidgets.QStyle.alignedRect(
+                QtCore.Qt.LayoutDirection.LeftToRight, QtCore.Qt.AlignmentFlag.AlignCenter,
+                size, area))
+            self._placeholder.raise_()
         if not self._probe_label.isHidden():
-            self._probe_label.setMaximumWidth(max(60, width - 8))
-            self._probe_label.adjustSize()
-            # bottom-left above the fps label: clear of the colour bar on the right
-            y = self._fps_label.y() - self._probe_label.height() - 2
-            self._probe_label.move(4, max(0, y))
-            self._probe_label.raise_()
+            self._place_probe()
+
+    def _place_probe(self) -> None:
+        """The depth probe's text in the image's bottom-left corner, above the fps label,
+        inside the image (never on the colour bar to its right)."""
+        area = self.image_rect().adjusted(OVERLAY_INSET_PX, OVERLAY_INSET_PX,
+                                          -OVERLAY_INSET_PX, -OVERLAY_INSET_PX)
+        bar = self.colour_bar_rect()
+        if not bar.isEmpty() and area.right() >= bar.left():
+            area.setRight(bar.left() - OVERLAY_INSET_PX)
+        if area.width() <= 0 or area.height() <= 0:
+            return
+        bottom = area.bottom() + 1
+        fps = self._fps_label.geometry()
+        if fps.top() < bottom and fps.right() >= area.left():  # the fps label is in the image
+            above_fps = fps.top() - 2
+            if above_fps - area.top() >= self._probe_label.fontMetrics().height() * 2:
+                bottom = above_fps  # else the image is too short: over the fps label
+        size = _fit_text(self._probe_label, area.width(), bottom - area.top(), self._probe_pt)
+        y = max(area.top(), bottom - size.height())
+        self._probe_label.setGeometry(area.left(), y, size.width(), size.height())
+        self._probe_label.raise_()
+
+
+def _fit_text(label: QtWidgets.QLabel, width: int, height: int, max_pt: float) -> QtCore.QSize:
+    """Size a word-wrapped label to fit ``width`` × ``height`` px: the largest font size from
+    ``max_pt`` down to OVERLAY_MIN_PT in which every word fits the width and the wrapped text
+    the height. Returns the label's size (as small as its text allows)."""
+    margins = label.contentsMargins()
+    extra_w = margins.left() + margins.right() + 2 * label.margin()
+    text = label.text()
+    words = [w for w in re.split(r"[ \n]+", text) if w] or [""]  # non-breaking spaces stay
+    lines = text.split("\n")
+    font = QtGui.QFont(label.font())
+    pt = max_pt
+    while True:
+        font.setPointSizeF(pt)
+        metrics = QtGui.QFontMetricsF(font)
+        natural = max(metrics.horizontalAdvance(line) for line in lines) + extra_w
+        longest = max(metrics.horizontalAdvance(word) for word in words) + extra_w
+        w = math.ceil(min(natural + 1.0, float(width)))
+        if longest <= w or pt <= OVERLAY_MIN_PT:
+            if label.font().pointSizeF() != pt:
+                label.setFont(font)
+            h = label.heightForWidth(w)
+            if h <= height or pt <= OVERLAY_MIN_PT:
+                return QtCore.QSize(w, min(h, height))
+        pt = max(OVERLAY_MIN_PT, pt - 1.0)

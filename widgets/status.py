@@ -57,25 +57,143 @@ class Banner(QtWidgets.QLabel):
                            f" padding: 6px 10px; }}")
 
 
+class ElidedLabel(QtWidgets.QLabel):
+    """A one-line label that shows as much of its text as fits, ending in "…", with the full
+    text in its tooltip.
+
+    ``text()`` is the full text; ``shown_text()`` what is drawn. It asks for its full width
+    (``sizeHint``) but can shrink to a few characters (``minimumSizeHint``), so in a status
+    bar it gives way to the labels beside it instead of pushing them off the edge.
+
+    Signals: none.
+    """
+
+    def __init__(self, text: str = "", min_chars: int = 12,
+                 parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._full = ""
+        self._min_chars = int(min_chars)
+        self.setSizePolicy(QtWidgets.QSizePolicy.Policy.Preferred,
+                           QtWidgets.QSizePolicy.Policy.Preferred)
+        self.setText(text)
+
+    def setText(self, text: str) -> None:  # noqa: N802 (Qt override)
+        """Show ``text`` (elided when it does not fit); the tooltip holds all of it."""
+        if text == self._full and self.toolTip() == text:
+            return
+        self._full = text
+        self.setToolTip(text)
+        self._elide()
+        self.updateGeometry()
+
+    def text(self) -> str:  # Qt override
+        """The full text, as set."""
+        return self._full
+
+    def shown_text(self) -> str:
+        """The text as drawn: the full text, or its start and "…"."""
+        return super().text()
+
+    def is_elided(self) -> bool:
+        """True when the label is too narrow for its text."""
+        return self.shown_text() != self._full
+
+    def _extra_px(self) -> int:
+        m = self.contentsMargins()
+        return m.left() + m.right() + 2 * self.margin() + 2 * self.frameWidth() + 2
+
+    def sizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
+        """Wide enough for the full text."""
+        self.ensurePolished()  # the style sheet's bold font is what is measured
+        hint = super().sizeHint()
+        width = math.ceil(self.fontMetrics().horizontalAdvance(self._full)) + self._extra_px()
+        return QtCore.QSize(width, hint.height())
+
+    def minimumSizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
+        """Wide enough for the first few characters and "…"."""
+        self.ensurePolished()
+        hint = super().minimumSizeHint()
+        start = self._full[:self._min_chars] + ("…" if len(self._full) > self._min_chars else "")
+        width = math.ceil(self.fontMetrics().horizontalAdvance(start)) + self._extra_px()
+        return QtCore.QSize(min(width, self.sizeHint().width()), hint.height())
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        super().resizeEvent(event)
+        self._elide()
+
+    def changeEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        super().changeEvent(event)
+        if event.type() in (QtCore.QEvent.Type.FontChange, QtCore.QEvent.Type.StyleChange):
+            self._elide()
+
+    def _elide(self) -> None:
+        room = self.contentsRect().width() - 2 * self.margin()
+        shown = self.fontMetrics().elidedText(self._full, QtCore.Qt.TextElideMode.ElideRight,
+                                              max(0, room))
+        if shown != super().text():
+            super().setText(shown)
+
+
+class FixedWidthLabel(QtWidgets.QLabel):
+    """A label at least as wide as its widest expected text (``widest``), so a changing number
+    ("latency 48 ms" → "latency 1203 ms") is never cut and never makes its neighbours jump.
+
+    Signals: none.
+    """
+
+    def __init__(self, text: str, widest: str, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(text, parent)
+        self.widest = widest
+
+    def widest_px(self) -> int:
+        """The width (px) the widest text takes in this label, margins included."""
+        self.ensurePolished()
+        m = self.contentsMargins()
+        extra = m.left() + m.right() + 2 * self.margin() + 2 * self.frameWidth() + 2
+        return math.ceil(self.fontMetrics().horizontalAdvance(self.widest)) + extra
+
+    def sizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
+        """At least as wide as the widest text."""
+        hint = super().sizeHint()
+        return QtCore.QSize(max(hint.width(), self.widest_px()), hint.height())
+
+    def minimumSizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
+        """Never narrower than the widest text: a status bar must not squeeze it."""
+        hint = super().minimumSizeHint()
+        return QtCore.QSize(max(hint.width(), self.widest_px()), hint.height())
+
+
+FPS_WIDEST = "99.9 fps"
+LATENCY_WIDEST = "latency 9999 ms"
+
+
 class StatusBarItems:
     """The labels deskarm shows in its QStatusBar: camera, bridge, fps and latency.
 
-    Not a widget itself: it creates four QLabels (``camera_label``, ``bridge_label``,
+    Not a widget itself: it creates four labels (``camera_label``, ``bridge_label``,
     ``fps_label``, ``latency_label``) and, given a status bar, adds them as permanent widgets.
     A state string starting with "ok", "connected", "sim" or "running" is shown green, one
     containing "lost", "error" or "fail" red, anything else orange.
+
+    The fps and latency labels are always wide enough for "99.9 fps" and "latency 9999 ms";
+    on a narrow screen the camera and bridge labels give way, elided with "…" (the full text
+    in their tooltips).
 
     Signals: none.
     """
 
     def __init__(self, status_bar: QtWidgets.QStatusBar | None = None) -> None:
-        self.camera_label = QtWidgets.QLabel("camera: —")
-        self.bridge_label = QtWidgets.QLabel("bridge: —")
-        self.fps_label = QtWidgets.QLabel("— fps")
-        self.latency_label = QtWidgets.QLabel("latency — ms")
+        self.camera_label = ElidedLabel("camera: —")
+        self.bridge_label = ElidedLabel("bridge: —")
+        self.fps_label = FixedWidthLabel("— fps", FPS_WIDEST)
+        self.latency_label = FixedWidthLabel("latency — ms", LATENCY_WIDEST)
         for label in self.labels():
             label.setMinimumHeight(24)
             label.setContentsMargins(6, 0, 6, 0)
+        for label in (self.fps_label, self.latency_label):
+            # the number ends where the label does, however short it is
+            label.setAlignment(QtCore.Qt.AlignmentFlag.AlignRight
+                               | QtCore.Qt.AlignmentFlag.AlignVCenter)
         if status_bar is not None:
             self.add_to(status_bar)
 

@@ -23,9 +23,13 @@ from core.kinematics.profile import parse_profile  # noqa: E402
 from widgets.arm_twin import (  # noqa: E402
     LEVEL_COLOURS,
     ArmTwin,
+    break_lines,
     circle_outline,
     joint_levels,
+    legend_entries,
+    marker_entry,
     normalise_level,
+    place_labels,
     profile_joint_levels,
     side_view_coords,
     workspace_outlines,
@@ -363,3 +367,62 @@ def test_joint_readout_names_each_rows_unit_for_mixed_arms(qtbot, solvers):
     assert "cmd °" in texts
     with pytest.raises(ValueError, match="one unit per joint"):
         readout.set_joints(["a"], [0], [1], ["mm", "deg"])
+
+
+# ------------------------------------------------------------------------------- text layout (pure)
+def rects_of(corners, sizes):
+    return [(x, y, x + w, y + h) for (x, y), (w, h) in zip(corners, sizes)]
+
+
+def overlap(a, b) -> bool:
+    return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
+
+
+def test_break_lines_fills_lines_between_entries_and_breaks_an_entry_only_when_wider_than_a_line():
+    entries = [[30.0], [30.0, 10.0], [50.0], [200.0], [20.0, 20.0, 20.0, 20.0]]  # words (px)
+    # word gap 2, entry gap 6: 30 | 30+2+10 = 42 → 30+6+42 = 78 ≤ 100; +6+50 > 100
+    lines = break_lines(entries, 100.0, 6.0, 2.0)
+    assert lines[0] == [(0, 0, 1), (1, 0, 2)]
+    assert lines[1] == [(2, 0, 1)]
+    assert lines[2] == [(3, 0, 1)]  # a single word wider than the line: alone, not dropped
+    assert [span for line in lines[3:] for span in line] == [(4, 0, 4)]  # 86 px fits a line
+    narrow = break_lines([[20.0, 20.0, 20.0, 20.0]], 50.0, 6.0, 2.0)
+    assert narrow == [[(0, 0, 2)], [(0, 2, 4)]]  # broken between its words, every word kept
+    assert break_lines([], 100.0, 6.0, 2.0) == []
+
+
+def test_marker_entries_carry_the_id_and_position_in_cm_and_replace_the_plain_markers_entry():
+    words = marker_entry(23, (0.031, 0.152, -0.0001))
+    plain = QtGui.QTextDocumentFragment.fromHtml(" ".join(words)).toPlainText().replace("\u00a0", " ")
+    assert plain == "■ 23: x 3.1 y 15.2 z 0.0 cm"
+    assert len(words) == 4  # "■ 23:", "x 3.1", "y 15.2", "z 0.0 cm": a break never splits a pair
+    plain_entries = legend_entries("measured")
+    with_markers = legend_entries("measured", [words])
+    assert plain_entries[:-1] == with_markers[:-1] and with_markers[-1] == words
+
+
+def test_place_labels_prefers_the_upper_right_and_flips_inside_at_the_edges():
+    size = (20.0, 10.0)
+    bounds = (0.0, 0.0, 200.0, 100.0)
+    (x, y), = place_labels([(100.0, 50.0)], [size], bounds, gap=2.0)
+    assert (x, y) == (102.0, 38.0)  # upper right of the dot
+    for anchor in [(199.0, 50.0), (100.0, 1.0), (1.0, 99.0), (199.0, 1.0), (0.0, 0.0)]:
+        (x, y), = place_labels([anchor], [size], bounds, gap=2.0)
+        assert bounds[0] <= x and x + size[0] <= bounds[2], anchor
+        assert bounds[1] <= y and y + size[1] <= bounds[3], anchor
+    (x, _), = place_labels([(199.0, 50.0)], [size], bounds, gap=2.0)
+    assert x + size[0] <= 199.0  # flipped to the left of a dot at the right edge
+    (_, y), = place_labels([(100.0, 1.0)], [size], bounds, gap=2.0)
+    assert y >= 1.0  # below a dot at the top edge
+
+
+def test_place_labels_keeps_close_labels_apart():
+    """Ids 50 and 23 at almost the same place were drawn over each other ("5023")."""
+    anchors = [(100.0, 60.0), (103.0, 61.0), (101.0, 58.0), (140.0, 60.0)]
+    sizes = [(17.0, 16.0), (17.0, 16.0), (10.0, 16.0), (24.0, 16.0)]
+    bounds = (0.0, 0.0, 200.0, 120.0)
+    rects = rects_of(place_labels(anchors, sizes, bounds), sizes)
+    for i, a in enumerate(rects):
+        assert bounds[0] <= a[0] and a[2] <= bounds[2] and bounds[1] <= a[1] and a[3] <= bounds[3]
+        for b in rects[i + 1:]:
+            assert not overlap(a, b), (a, b)

@@ -64,6 +64,10 @@ def test_the_3d_twin_renders_an_arm_under_xvfb(tmp_path):
     assert report["measured_px"] > 50, report  # the orange arm
     assert report["limit_px"] > 20, report  # the red joint dot at its limit
     assert report["view_home_fits"], report
+    # the legend wraps instead of cutting, and lists the marker's id and position
+    assert report["legend_has_marker"], report
+    assert report["legend_fits"], report
+    assert report["buttons_fit"] and report["button_rows"] < 5, report
     assert png.exists()
 
 
@@ -113,11 +117,26 @@ def child(out_png: str) -> int:
     measured = (r > 200) & (g > 120) & (g < 200) & (b < 90)
     limit = (r > 200) & (g < 70) & (b < 70)
     fits = abs(twin.view.opts["distance"] - twin._home_distance()) < 1e-6 * twin._home_distance()
+    # the size the main window gives the twin at 800x480: the legend wraps, the buttons
+    # re-flow into columns, nothing is pushed out of the twin
+    twin.resize(381, 150)
+    for _ in range(20):
+        app.processEvents()
+    legend = twin.legend_label
+    inside = twin.rect()
+    legend_fits = (twin.height() == 150 and legend.sizeHint().width() <= legend.width()
+                   and legend.sizeHint().height() <= legend.height()
+                   and inside.contains(legend.geometry()))
+    buttons_fit = all(inside.contains(b.geometry()) and not b.geometry().intersects(legend.geometry())
+                      and b.height() >= 44 for b in twin.buttons.values())
     print(json.dumps({
         "status": "ok", "size": [w, h],
         "distinct_colours": int(len(np.unique(rgb.reshape(-1, 3), axis=0))),
         "measured_px": int(measured.sum()), "limit_px": int(limit.sum()),
         "view_home_fits": bool(fits), "gl": reason,
+        "legend_has_marker": "7: x 5.0 y 5.0 z 0.0 cm" in twin.legend_text(),
+        "legend_fits": bool(legend_fits), "legend_lines": legend.lines_text(),
+        "buttons_fit": bool(buttons_fit), "button_rows": twin.button_rows(),
     }))
     twin.close()
     return 0

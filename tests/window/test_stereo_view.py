@@ -146,6 +146,11 @@ def test_tapping_the_disparity_view_shows_depth_in_mm_and_the_base_point_in_cm(q
     assert sample.depth_mm == pytest.approx(np.asarray(marker.camera_p_centre)[2] * 1e3, abs=15)
     text = window.view_left.probe_text()
     assert f"{sample.depth_mm:.0f} mm" in text and " cm" in text and "x " in text
+    # in the 800x480 window the text stays in the image, off the colour bar (tests/window/test_text_fit.py)
+    view = window.view_left
+    probe = view.overlay_widgets()["probe"]
+    assert view.image_rect().contains(probe.geometry()), (probe.geometry(), view.image_rect())
+    assert not probe.geometry().intersects(view.colour_bar_rect())
     assert "Depth at" in window.stereo_panel.depth_label.text()
     # image mode: the probe is hidden, taps go to the markers again
     qtbot.mouseClick(window.view_left.toggle_button, LEFT)
