@@ -451,6 +451,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_camera_error(self, message: str) -> None:
         """A camera problem (banner, retrying) or, with "", the camera is back."""
         self._camera_error = message or None
+        for view in (self.view_left, self.view_right):  # the next frame clears it
+            view.set_placeholder(f"no frames — {message}" if message else "")
         if self.calibration_controller is not None:
             self.calibration_controller.camera_problem(message)
         if self.device_panel is not None:
@@ -952,11 +954,11 @@ class MainWindow(QtWidgets.QMainWindow):
         if not s.controller.armed:
             bridge_text = f"E-STOP · {bridge_text}"
         if b is not None:
-            # green only for a clean connection: a failed switch keeps the old bridge connected
-            # but carries its message ("could not switch to … — still on …"): warning colour
+            # green only for a working connection: a failed switch keeps the old bridge
+            # connected but says "could not switch to … — still on …": warning colour
             self.bridge_picker.set_status(f"{b.url}: {'connected' if b.connected else 'not connected'}"
                                           f"{' — ' + b.message if b.message else ''}",
-                                          b.connected and not b.message)
+                                          b.connected and not b.request_failed)
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
 
 

@@ -390,6 +390,7 @@ class BridgeWorker(_LoopThread):
         refusal = s.real_arm_refusal(url) if url is not None else ""
         if refusal:  # a real arm never follows the simulated desk standing in for missing cameras
             s.bridge.message = refusal
+            s.bridge.request_failed = True
             url = None
         if url is not None:
             from core.devices import open_bridge
@@ -398,6 +399,7 @@ class BridgeWorker(_LoopThread):
                 new = open_bridge(url, s.profile, clock=s.clock)
             except (ValueError, BridgeError) as exc:  # unknown URL or unfit profile: keep the bridge that works
                 s.bridge.message = str(exc)
+                s.bridge.request_failed = True
             else:
                 old = s.bridge
                 old.disconnect()
@@ -410,6 +412,7 @@ class BridgeWorker(_LoopThread):
                     except BridgeError:
                         pass
                     old.message = f"could not switch to {url}: {exc} — still on {old.url}"
+                    old.request_failed = True
                 else:
                     s.bridge = new
                     self.reconnector.reset()
@@ -420,6 +423,7 @@ class BridgeWorker(_LoopThread):
                     method()
                 except BridgeError as exc:
                     s.bridge.message = str(exc)
+                    s.bridge.request_failed = True
 
     def _ensure_connected(self) -> bool:
         """Connect if needed, retrying with a growing delay (0.5 s … 5 s) after failures."""

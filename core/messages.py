@@ -153,6 +153,7 @@ class BridgeStatus:
     bytes_written: int = 0
     last_write_t: Optional[float] = None
     last_source_t: Optional[float] = None  # capture time behind the last command written
+    request_failed: bool = False  # the user's last switch/e-stop request failed; message says why
 
 
 def as_point(p) -> tuple[float, float, float]:

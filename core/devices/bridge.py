@@ -70,6 +70,7 @@ class MotorBridge(ABC):
         self.last_write_t: Optional[float] = None
         self.last_source_t: Optional[float] = None
         self.message = ""
+        self.request_failed = False  # set by the app when a request to switch or stop it failed
         self._state_seq = SequenceCounter()
         self._last_sent_deg: Optional[tuple[int, ...]] = None
 
@@ -149,6 +150,7 @@ class MotorBridge(ABC):
             url=self.url, connected=self.is_connected, message=message,
             commands_sent=self.commands_sent, bytes_written=self.bytes_written,
             last_write_t=self.last_write_t, last_source_t=self.last_source_t,
+            request_failed=self.request_failed,
         )
 
     def __enter__(self):

@@ -680,4 +680,5 @@ class SerialV2Bridge(MotorBridge):
             url=self.url, connected=self._connected, message=message,
             commands_sent=self.commands_sent, bytes_written=self.bytes_written,
             last_write_t=self.last_write_t, last_source_t=self.last_source_t,
+            request_failed=self.request_failed,
         )

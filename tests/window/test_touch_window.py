@@ -231,7 +231,12 @@ def test_a_failed_bridge_switch_is_not_green(qtbot, small):
         qtbot.waitUntil(lambda: small._bridge_status is not None and "could not" in small._bridge_status.message,
                         timeout=5000)
         small._refresh_status()
-        assert "#2e9d44" not in small.bridge_picker.status_label.text()
+        assert small._bridge_status.request_failed and small._bridge_status.connected  # still on sim://
+        assert "#2e9d44" not in small.bridge_picker.status_label.text()  # not success green
+        small.on_bridge_requested("sim://")  # a switch that works is green again
+        qtbot.waitUntil(lambda: not small._bridge_status.request_failed, timeout=5000)
+        small._refresh_status()
+        assert "#2e9d44" in small.bridge_picker.status_label.text()
     finally:
         small.stop()
 
