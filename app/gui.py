@@ -24,6 +24,7 @@ import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.calibration_worker import CalibrationController
+from app.preferences import WindowPreferences
 from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
 from core.messages import TargetMode
@@ -124,6 +125,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._status_timer.setInterval(STATUS_INTERVAL_MS)
         self._status_timer.timeout.connect(self._refresh_status)
         self.splitter.splitterMoved.connect(self._mark_dirty)  # view width: compact marker labels
+        # settings remembered between runs (mode, Lissajous, camera controls, bridge port, 3D,
+        # geometry); restored as user actions would set them, the bridge is never connected
+        self.preferences = WindowPreferences(self)
+        self.preferences.sigMessage.connect(self._show_note)
+        self.preferences.restore()
+        if self.preferences.messages:
+            self._show_note(" · ".join(self.preferences.messages))
 
     @property
     def redraw_only_changes(self) -> bool:
@@ -332,11 +340,16 @@ class MainWindow(QtWidgets.QMainWindow):
         return self.help_dialog
 
     def _settings_file(self) -> str:
-        return ""
+        return str(self.preferences.path)
 
     @QtCore.Slot()
     def on_reset_settings(self) -> None:
-        pass
+        """Help → Reset settings (held): defaults in every control, the old file kept as .bak."""
+        if self.preferences.reset():
+            text = "settings reset to defaults (the old file is kept as preferences.toml.bak)"
+            self._show_note(text)
+            if self.help_dialog is not None:
+                self.help_dialog.set_reset_message(text)
 
     def _build_camera_page(self) -> QtWidgets.QWidget:
         """Calibrate button and state, then the image controls: the simulated camera's four
@@ -395,6 +408,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workers.stop()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
+        self.preferences.save()
         self.stop()
         super().closeEvent(event)
 
@@ -956,9 +970,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if b is not None:
             # green only for a working connection: a failed switch keeps the old bridge
             # connected but says "could not switch to … — still on …": warning colour
-            self.bridge_picker.set_status(f"{b.url}: {'connected' if b.connected else 'not connected'}"
-                                          f"{' — ' + b.message if b.message else ''}",
-                                          b.connected and not b.request_failed)
+            self.bridge_picker.show_bridge_status(b)
         self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
 
 
@@ -1154,13 +1166,16 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     screen = app.primaryScreen()
     free = screen.availableGeometry() if screen is not None else QtCore.QRect()
     fitted, maximise = fit_window_size(size, (free.width(), free.height()))
-    window.resize(*fitted)
     app.aboutToQuit.connect(window.stop)
     freeze_startup_objects()  # short young-generation collections while the loop runs
-    if maximise:
+    if window.preferences.geometry_restored:  # where the user left it (it fits this screen)
+        window.show()
+    elif maximise:
+        window.resize(*fitted)
         window.move(free.topLeft())  # where no window manager maximises (a bare X server)
         window.showMaximized()
     else:
+        window.resize(*fitted)
         window.move(free.topLeft())
         window.show()
     finish_splash(splash)

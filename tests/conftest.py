@@ -13,7 +13,10 @@ os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
 @pytest.fixture(autouse=True)
 def _deskarm_home(tmp_path_factory, monkeypatch):
     """Config and cache folders of a throw-away user, so tests never touch the real ones."""
-    monkeypatch.setenv("DESKARM_HOME", str(tmp_path_factory.getbasetemp() / "deskarm_home"))
+    home = tmp_path_factory.getbasetemp() / "deskarm_home"
+    monkeypatch.setenv("DESKARM_HOME", str(home))
+    # the window saves its settings on close: each test starts from the defaults
+    (home / "config" / "preferences.toml").unlink(missing_ok=True)
 
 
 @pytest.fixture(scope="session")

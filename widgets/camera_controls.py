@@ -16,6 +16,7 @@ from widgets._style import (
     TOUCH_PX,
     Coalescer,
     touch_button,
+    touch_combo,
     touch_scroll_area,
     touch_slider,
 )
@@ -193,7 +194,7 @@ class SgbmPanel(QtWidgets.QWidget):
         grid.setContentsMargins(4, 4, 4, 4)
         grid.setColumnStretch(1, 1)
         row = 0
-        self.mode_combo = QtWidgets.QComboBox()
+        self.mode_combo = touch_combo(QtWidgets.QComboBox())
         self.mode_combo.addItems(list(SGBM_MODES))
         self.mode_combo.setMinimumHeight(TOUCH_PX)
         self.mode_combo.currentIndexChanged.connect(self._coalescer.poke)

@@ -9,7 +9,8 @@ the device really took.
 from __future__ import annotations
 
 import math
-from typing import Optional, Sequence
+from collections.abc import Mapping, Sequence
+from types import MappingProxyType
 
 from PySide6 import QtCore, QtWidgets
 from superqt import QLabeledDoubleSlider
@@ -35,7 +36,7 @@ def _decimals(step: float) -> int:
 class _ControlRow:
     """The widgets of one control: label, slider, optional auto checkbox, its own coalescer."""
 
-    def __init__(self, panel: "DeviceControlsPanel", control: CameraControl) -> None:
+    def __init__(self, panel: DeviceControlsPanel, control: CameraControl) -> None:
         self.control = control
         text = control.label + ("" if control.range_known else " *")
         self.label = QtWidgets.QLabel(text)
@@ -49,7 +50,7 @@ class _ControlRow:
         self.slider.setSingleStep(control.step)
         self.slider.setPageStep(control.step * 10)
         touch_slider(self.slider)
-        self.auto: Optional[QtWidgets.QCheckBox] = None
+        self.auto: QtWidgets.QCheckBox | None = None
         if control.auto is not None:
             self.auto = QtWidgets.QCheckBox("auto")
             self.auto.setStyleSheet(CHECKBOX_STYLE)
@@ -86,11 +87,14 @@ class DeviceControlsPanel(QtWidgets.QWidget):
             most one per 50 ms per control, already clamped to the reported range and step.
         sigAutoRequested(str name, bool on): the user switched a control's "auto" checkbox.
         sigRefreshRequested(): the user asked to read the controls again (Refresh button).
+        sigControlsRebuilt(): :meth:`set_controls` rebuilt the rows from the device's list (the
+            first one, after a replug, after a refresh): saved values can be requested again.
     """
 
     sigControlRequested = QtCore.Signal(str, float)
     sigAutoRequested = QtCore.Signal(str, bool)
     sigRefreshRequested = QtCore.Signal()
+    sigControlsRebuilt = QtCore.Signal()
 
     def __init__(self, controls: Sequence[CameraControl] = (), parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -137,6 +141,43 @@ class DeviceControlsPanel(QtWidgets.QWidget):
             self.set_message("")
         else:
             self.set_message("this camera reports no adjustable controls (or it is unplugged)")
+        self.sigControlsRebuilt.emit()
+
+    def values(self) -> dict[str, float]:
+        """The value each control shows now (in its range, on its step), by control name."""
+        return {name: row.value() for name, row in self.rows.items()}
+
+    def auto_states(self) -> dict[str, bool]:
+        """Whether each control that has an automatic mode is on automatic, by control name."""
+        return {name: row.auto.isChecked() for name, row in self.rows.items() if row.auto is not None}
+
+    def request_values(self, values: Mapping[str, float],
+                       auto: Mapping[str, bool] = MappingProxyType({})) -> dict[str, float]:
+        """Ask the device for (saved) values as a user would: automatic modes first, then each
+        value that differs from what the device reports, unless the control is on automatic.
+
+        Emits sigAutoRequested / sigControlRequested at once (not coalesced) and shows the
+        requested values; names the device does not list are skipped. Returns the values
+        requested, clamped to each control's range and step.
+        """
+        requested: dict[str, float] = {}
+        for name, row in self.rows.items():
+            on = auto.get(name)
+            if row.auto is not None and on is not None and row.auto.isChecked() != bool(on):
+                row.auto.setChecked(bool(on))  # toggled -> sigAutoRequested, frees or locks the slider
+            if name not in values or (row.auto is not None and row.auto.isChecked()):
+                continue
+            value = row.control.clamp(values[name])
+            if value == row.control.value:
+                continue
+            row.coalescer.cancel()
+            blocked = row.slider.blockSignals(True)
+            row.slider.setValue(value)
+            row.slider.blockSignals(blocked)
+            row.last_sent = value
+            requested[name] = value
+            self.sigControlRequested.emit(name, value)
+        return requested
 
     def show_applied(self, control: CameraControl) -> None:
         """Show what the device took for one control (clamped), without emitting."""

@@ -12,10 +12,12 @@ the camera's clock, then moved to the next, so the wizard can capture it like a 
 """
 from __future__ import annotations
 
+import atexit
 import collections
 import itertools
 import threading
 import time
+import weakref
 from dataclasses import dataclass, replace
 from typing import Optional
 
@@ -169,6 +171,7 @@ class SimStereoCamera(ClockPacedSource):
         if not self.clock.simulated and self.render_ahead:
             self._sensor = threading.Thread(target=self._sensor_loop, name="sim-camera", daemon=True)
             self._sensor.start()
+            _SENSING.add(self)
 
     def disconnect(self) -> None:
         super().disconnect()
@@ -177,6 +180,7 @@ class SimStereoCamera(ClockPacedSource):
         sensor, self._sensor = self._sensor, None
         if sensor is not None and sensor is not threading.current_thread():
             sensor.join(timeout=5.0)
+        _SENSING.discard(self)
 
     def interrupt(self) -> None:
         super().interrupt()
@@ -288,3 +292,15 @@ class SimStereoCamera(ClockPacedSource):
 
     def base_T_camera(self) -> np.ndarray:
         return self.rig.base_T_camera
+
+
+# Cameras whose sensor thread runs. A daemon thread still inside OpenCV while the interpreter
+# shuts down aborts the process ("terminate called without an active exception", exit 134):
+# a program (or a test) that forgot to disconnect gets its sensors stopped and joined first.
+_SENSING: "weakref.WeakSet[SimStereoCamera]" = weakref.WeakSet()
+
+
+@atexit.register
+def _stop_sensors_at_exit() -> None:
+    for camera in list(_SENSING):
+        camera.disconnect()

@@ -170,6 +170,7 @@ def window(qtbot):
         w.start()
     yield w
     w.stop()
+    session.close()  # an open simulated camera keeps rendering in its thread until Python exits
 
 
 def test_window_builds_the_panel_from_the_device_and_applies_requests_in_the_worker(qtbot, window):
@@ -203,3 +204,84 @@ def test_unplugging_shows_the_banner_and_replugging_resumes(qtbot, window):
     seq = window._result.seq if window._result is not None else -1
     qtbot.waitUntil(lambda: window._result is not None and window._result.seq > seq,
                     timeout=TIMEOUT_MS)  # frames flow again
+
+
+# ------------------------------------------------------------------------------- saved values
+def test_values_and_auto_states_read_what_the_panel_shows(panel):
+    assert panel.values() == {"exposure": 156.0, "gain": 32.0, "brightness": 0.0, "contrast": 32.0,
+                              "saturation": 64.0, "white_balance": 4600.0, "focus": 0.0}
+    assert panel.auto_states() == {"exposure": True, "white_balance": False, "focus": True}
+
+
+def test_request_values_asks_for_what_differs_autos_first_and_shows_it(qtbot, panel):
+    got = []
+    panel.sigControlRequested.connect(lambda name, value: got.append(("value", name, value)))
+    panel.sigAutoRequested.connect(lambda name, on: got.append(("auto", name, on)))
+    requested = panel.request_values(
+        {"gain": 33.4, "brightness": 0.0, "exposure": 300.0, "focus": 50.0, "zoom": 3.0},
+        {"exposure": False})
+    # brightness is already 0, focus stays automatic, the camera has no zoom; gain snaps to its step
+    assert requested == {"gain": 33.0, "exposure": 300.0}
+    assert got == [("auto", "exposure", False), ("value", "exposure", 300.0), ("value", "gain", 33.0)]
+    assert panel.rows["exposure"].slider.isEnabled() and panel.values()["exposure"] == 300.0
+    with qtbot.assertNotEmitted(panel.sigControlRequested, wait=150):
+        panel.flush()  # nothing left pending: each value was sent once
+
+
+def test_set_controls_tells_that_the_rows_were_rebuilt(qtbot, panel):
+    with qtbot.waitSignal(panel.sigControlsRebuilt, timeout=TIMEOUT_MS):
+        panel.set_controls(fake_controls()[:2])
+    assert list(panel.rows) == ["exposure", "gain"]
+
+
+@pytest.fixture
+def window_with_saved_controls(qtbot, tmp_path, monkeypatch):
+    """The fake webcams' window with saved controls for its pair, restored before it starts."""
+    from app.gui import MainWindow
+    from core.preferences import Preferences, save_preferences
+    from core.session import DeskSession, SessionOptions
+
+    monkeypatch.setenv("DESKARM_HOME", str(tmp_path / "home"))
+    save_preferences(Preferences(camera_controls={"webcam:0,2": {"gain": 42.0, "exposure": 500.0},
+                                                  "webcam:4,6": {"gain": 99.0}},
+                                 camera_auto={"webcam:0,2": {"exposure": False}}))
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
+    session.camera.disconnect()
+    session.camera = FakeWebcams()
+    session.camera.connect()
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    w.resize(800, 480)
+    w.show()
+    prefs = w.preferences
+    prefs.restore()
+    with qtbot.waitSignal(w.workers.perception.sigControls, timeout=TIMEOUT_MS):
+        w.start()
+    yield w, prefs
+    w.stop()
+    session.close()
+
+
+def test_saved_controls_are_requested_again_when_the_camera_lists_its_controls(qtbot, window_with_saved_controls):
+    window, prefs = window_with_saved_controls
+    cam, panel = window.session.camera, window.device_panel
+    # exposure: automatic off first, then the value; gain 42 becomes 40 on this device (steps of 5)
+    qtbot.waitUntil(lambda: panel.rows.get("gain") is not None and panel.rows["gain"].slider.value() == 40,
+                    timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: cam.values["exposure"].value == 500.0, timeout=TIMEOUT_MS)
+    asked = [c[:3] for c in cam.calls]
+    assert asked.index(("auto", "exposure", False)) < asked.index(("value", "exposure", 500.0))
+    assert ("value", "gain", 42.0) in asked and all(not c[3] for c in cam.calls)  # in the worker
+    assert not prefs._saver.pending  # re-applying saved values is not a change
+    # the user's own move is remembered for this pair (and only this pair)
+    with qtbot.waitSignal(panel.sigControlRequested, timeout=TIMEOUT_MS):
+        panel.rows["white_balance"].slider.setValue(5000)
+    assert prefs.prefs.camera_controls["webcam:0,2"] == {"gain": 42.0, "exposure": 500.0, "white_balance": 5000.0}
+    assert prefs.prefs.camera_controls["webcam:4,6"] == {"gain": 99.0}
+    assert prefs._saver.pending
+    # after a replug or a refresh the camera lists its controls again: asked again
+    cam.values["gain"] = replace(cam.values["gain"], value=0.0)
+    before = len(cam.calls)
+    with qtbot.waitSignal(window.workers.perception.sigControls, timeout=TIMEOUT_MS):
+        window.on_controls_refresh()
+    qtbot.waitUntil(lambda: ("value", "gain", 42.0) in [c[:3] for c in cam.calls[before:]], timeout=TIMEOUT_MS)
