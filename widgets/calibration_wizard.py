@@ -493,13 +493,19 @@ class CalibrationWizard(QtWidgets.QDialog):
             self.start_button.setToolTip(board.describe())
             self.board_preview.set_image(board_picture(board))
 
-    def _on_save_printable(self) -> None:
-        """Ask where, then write the board as a PDF (true size) or a 300 dpi PNG, by the suffix."""
+    def _board_or_say_why(self) -> Optional[BoardSpec]:
+        """The board the page describes, or None with the reason shown under it."""
         try:
-            board = self.board()
+            return self.board()
         except BoardError as exc:
             self.board_error.setText(str(exc))
             self.board_error.show()
+            return None
+
+    def _on_save_printable(self) -> None:
+        """Ask where, then write the board as a PDF (true size) or a 300 dpi PNG, by the suffix."""
+        board = self._board_or_say_why()
+        if board is None:
             return
         start = str(Path.home() / f"{default_file_stem(board)}.pdf")
         path, chosen = QtWidgets.QFileDialog.getSaveFileName(self, "Save printable board", start,
@@ -533,11 +539,8 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.print_label.show()
 
     def _on_start(self) -> None:
-        try:
-            board = self.board()
-        except BoardError as exc:
-            self.board_error.setText(str(exc))
-            self.board_error.show()
+        board = self._board_or_say_why()
+        if board is None:
             return
         self.session_id = None  # updates from the old session are stale from now on
         self._board_missing_since = None
