@@ -759,6 +759,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._restore_banner()
         self._refresh_status()  # "E-STOP" in the status bar now, not at the next refresh
         self.workers.bridge.request_estop(engaged)
+        self._mark_dirty()  # the target strip says stopped / back on target
 
     @QtCore.Slot()
     def check_modal_dialog(self, *_args) -> None:
@@ -775,6 +776,7 @@ class MainWindow(QtWidgets.QMainWindow):
         else:
             controller.resume(MODAL_PAUSE)
         self._restore_banner()
+        self._mark_dirty()
 
     def _restore_banner(self) -> None:
         """The most important message: camera lost, e-stop, calibration drift, a note, session notes."""
@@ -938,7 +940,11 @@ class MainWindow(QtWidgets.QMainWindow):
         if goal is not None:
             twin.set_target(goal.base_p_target if goal.valid else None, bool(cmd.reachable) if cmd else True)
             twin.set_aimed_point(cmd.base_p_target if cmd is not None and not cmd.reachable else None)
-            if not goal.valid:
+            if not s.controller.armed:  # the last "on target" is stale: nothing is commanded
+                self.target_panel.set_reach_status("arm stopped (e-stop) — nothing is commanded", False)
+            elif s.controller.paused:
+                self.target_panel.set_reach_status(f"arm holding still — {s.controller.note or 'paused'}", False)
+            elif not goal.valid:
                 self.target_panel.set_reach_status(goal.note or "target lost — holding", False)
             elif cmd is not None and not cmd.reachable:
                 self.target_panel.set_reach_status(

@@ -11,7 +11,7 @@ import pytest
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.gui import MainWindow, cups_hint, fitted_geometry
-from core.messages import TargetMode
+from core.messages import Goal, TargetMode
 from core.session import DeskSession, SessionOptions
 from widgets.estop import EStopButton, RearmButton
 from widgets._style import TOUCH_PX
@@ -78,6 +78,10 @@ def test_stop_is_a_tap_target_and_rearm_only_shows_while_stopped(small):
     small.on_stop_requested()
     assert small.rearm_button.isVisible() and small.rearm_button.height() >= TOUCH_PX
     assert "Hold RE-ARM" in small.banner.text()
+    small._goal = Goal(seq=1, t=0.0, base_p_target=(0.0, 0.15, 0.1), mode=TargetMode.MANUAL)
+    small._dirty = True
+    small.redraw()
+    assert "stopped" in small.target_status.text()  # not a stale "on target"
 
 
 # --- 2. dialogs carry STOP and show the e-stop state ----------------------------------------
