@@ -15,7 +15,6 @@ written here (widgets never touch files), per camera pair.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import replace
 from typing import Optional

@@ -829,7 +829,7 @@ def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[t
         raise CalibrationFailed(
             f"only {n_detected} of {len(detections)} pairs show the board in both views (need at least "
             f"{options.min_pairs})" + (f" — {why}" if why else "") + " — check the board size "
-            f"(inner corners for a chessboard) and capture more pairs", results())
+            "(inner corners for a chessboard) and capture more pairs", results())
     max_reject = int(math.floor(options.max_rejected_fraction * n_detected))
     notes: list[str] = []
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-7)
