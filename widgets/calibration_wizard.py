@@ -58,6 +58,7 @@ from widgets._style import (
     WARN_COLOUR,
     TouchDoubleSpinBox,
     touch_button,
+    touch_combo,
 )
 
 PAGES = ("board", "capture", "results")
@@ -378,7 +379,7 @@ class CalibrationWizard(QtWidgets.QDialog):
             "squares_x": spin(3, 40, 5), "squares_y": spin(3, 40, 7),
             "square_mm": spin(2, 500, 25.0, 1, 0.5, " mm"), "marker_mm": spin(1, 499, 18.0, 1, 0.5, " mm"),
         }
-        combo = QtWidgets.QComboBox()
+        combo = touch_combo(QtWidgets.QComboBox())  # 44 px rows, no wheel surprises
         combo.addItems(list(ARUCO_DICTIONARY_NAMES))
         combo.setCurrentText("DICT_4X4_50")
         combo.setMinimumHeight(TOUCH_PX)

@@ -319,3 +319,12 @@ def wizard_board(wizard):
     from core.vision.stereo_calibration import ChessboardSpec
 
     return ChessboardSpec(9, 6, 0.025)
+
+
+def test_the_wizard_dictionary_list_has_finger_sized_rows(qtbot):
+    from widgets.calibration_wizard import CalibrationWizard
+
+    wizard = CalibrationWizard()
+    qtbot.addWidget(wizard)
+    combo = wizard.fields["dictionary"]
+    assert combo.view().sizeHintForRow(0) >= TOUCH_PX
