@@ -489,6 +489,9 @@ class CalibrationController(QtCore.QObject):
     def on_save_requested(self, update) -> None:
         """Install the calibration of ``update`` (a ReportUpdate) as the app's; ROS files beside the pairs."""
         report = update.report
+        if not getattr(report, "ok", True):
+            self.wizard.on_failed("not installed: " + "; ".join(report.problems))
+            return
         try:
             path = install_calibration(report.calibration, extra=report.file_extras())
             ros = []

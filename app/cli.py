@@ -20,7 +20,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="deskarm",
         description="See objects on the desk in 3D with two webcams and have a servo arm reach them. "
         "With nothing plugged in it runs on a simulated desk.",
-        epilog="tools: deskarm calibrate --help | deskarm ik --help | deskarm bench-ik --help",
+        epilog="tools: deskarm calibrate --help | deskarm calibrate-hand-eye --help | deskarm ik --help | deskarm bench-ik --help",
     )
     p.add_argument("--camera", default="auto", help=f"camera source: {CAMERA_CHOICES} (default: auto)")
     p.add_argument("--bridge", default="sim://", help=f"motor bridge: {BRIDGE_CHOICES} (default: sim://)")
@@ -28,6 +28,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenario", default="static", help=f"simulated desk scenario: {', '.join(SCENARIOS)}")
     p.add_argument("--calibration", default=None, help="stereo calibration YAML (default: the last saved one)")
     p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default: 30)")
+    p.add_argument("--markers", default=None, metavar="FILE",
+                   help="markers file: dictionary, ids, names, what each does (see resources/markers.example.toml; "
+                        "default: markers.toml in the config folder)")
+    p.add_argument("--hand-eye", default=None, metavar="FILE",
+                   help="camera→robot calibration TOML (default: the saved one, when it is for these cameras)")
+    p.add_argument("--rig-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
+                   help="simulated desk: the rig is mounted this far off its nominal pose (m, degrees)")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -56,6 +63,7 @@ SUBCOMMANDS = {
     "calibrate": "app.cli_calibrate",
     "ik": "app.cli_kinematics",
     "bench-ik": "app.cli_kinematics",
+    "calibrate-hand-eye": "app.cli_handeye",
 }
 
 
@@ -67,10 +75,18 @@ def main(argv: list[str] | None = None) -> int:
         module = importlib.import_module(SUBCOMMANDS[argv[0]])
         return module.run(argv[0], argv[1:])
     args = build_parser().parse_args(argv)
+    try:
+        from app.cli_handeye import parse_rig_offset
+
+        rig_offset = parse_rig_offset(args.rig_offset)
+    except ValueError as exc:
+        print(f"deskarm: {exc}", file=sys.stderr)
+        return 2
     options = SessionOptions(
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
-        event_driven=not args.tick_driven,
+        event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
+        markers=args.markers,
     )
     try:
         options.validate()

@@ -6,7 +6,10 @@
 Prints one line per pair (used, or rejected and why), then a summary; ``--json`` ends with one
 JSON object. Without ``--out`` the result goes where the app loads it at start
 (``<config>/calibration.yaml``; the one it replaces is kept as ``calibration.previous.yaml``).
-Exit codes: 0 calibrated, 1 calibration failed (too few usable pairs), 2 bad arguments.
+A calibration that fails a sanity check (implausible focal length, board distance, too little tilt,
+baseline ~0, swapped or upside-down camera, RMS too high) is reported and not written unless
+``--force``. Exit codes: 0 calibrated, 1 calibration failed (too few usable pairs, or a failed
+check without ``--force``), 2 bad arguments.
 """
 from __future__ import annotations
 
@@ -50,6 +53,12 @@ def build_parser(prog: str = "deskarm calibrate") -> argparse.ArgumentParser:
                    help="reject pairs whose reprojection RMS exceeds PX (default: automatic, 3x the median, ≥ 0.5 px)")
     p.add_argument("--no-sb", action="store_true",
                    help="skip the slow findChessboardCornersSB fallback (faster, finds fewer boards)")
+    p.add_argument("--wide", action="store_true",
+                   help="wide-angle lenses: accept a horizontal field of view up to 170° (default 20–120°)")
+    p.add_argument("--swap", action="store_true",
+                   help="the left and right pictures are swapped: use --left as right and --right as left")
+    p.add_argument("--force", action="store_true",
+                   help="save / install even when a sanity check fails (focal length, baseline, tilt, RMS …)")
     p.add_argument("--quiet", action="store_true", help="no per-pair lines")
     return p
 
@@ -127,12 +136,14 @@ def run(command: str, argv: list[str]) -> int:
             if args.square is None:
                 raise ValueError("give --square METRES, the side of one square, e.g. 0.025")
             board = parse_board(args.board, args.square)
-        options = CalibrationOptions(distortion=args.distortion, max_pair_error_px=args.max_error)
+        options = CalibrationOptions(distortion=args.distortion, max_pair_error_px=args.max_error, wide=args.wide)
         if args.install and not args.out:
             raise ValueError("--install goes with --out (without --out the result is installed anyway)")
         if args.no_save and (args.out or args.install):
             raise ValueError("--no-save contradicts --out / --install")
         pairs, warnings = _collect_pairs(args)
+        if args.swap:
+            pairs = [(rp, lp) for lp, rp in pairs]
     except (BoardError, ValueError) as exc:
         return _fail(str(exc))
     for w in warnings:
@@ -161,12 +172,12 @@ def run(command: str, argv: list[str]) -> int:
         say(f"[{k:3d}/{len(pairs)}] {lp.name} + {rp.name}: {status}")
         if k == EARLY_CHECK_PAIRS < len(pairs) and not any(d.ok for d in detections):
             # a wrong board description fails every pair, slowly: stop early when we can tell why
-            hint = suggest_board(sample_images, board)
+            hint = suggest_board(sample_images, board, pairs=pairs)
             if hint:
                 message = (f"the first {k} pairs show no {board.describe()} — stopped early\nhint: {hint}")
                 if args.json:
                     print(json.dumps({"error": message.splitlines()[0], "hint": hint, "pairs_total": len(pairs),
-                                      "pairs_used": 0, "pairs_rejected": k, "out": None,
+                                      "pairs_used": 0, "pairs_rejected": k, "out": None, "installed": False,
                                       "rejected": [{"pair": n, "reason": d.reason} for n, d in zip(names, detections)]}))
                 print(f"deskarm calibrate: {message}", file=sys.stderr)
                 return 1
@@ -178,13 +189,13 @@ def run(command: str, argv: list[str]) -> int:
     except CalibrationFailed as exc:
         hint = None
         if sum(d.ok for d in detections) < options.min_pairs:
-            hint = suggest_board(sample_images, board)
+            hint = suggest_board(sample_images, board, pairs=pairs)
         message = str(exc) + (f"\nhint: {hint}" if hint else "")
         if args.json:
             rejected = [{"pair": p.name, "reason": p.reason} for p in exc.pairs if p.reason]
             print(json.dumps({"error": str(exc), "hint": hint, "pairs_total": len(detections),
                               "pairs_used": 0, "pairs_rejected": len(rejected), "rejected": rejected,
-                              "out": None}))
+                              "out": None, "installed": False}))
         print(f"deskarm calibrate: {message}", file=sys.stderr)
         return 1
     for p in report.pairs:
@@ -196,24 +207,31 @@ def run(command: str, argv: list[str]) -> int:
 
     # -- writing -----------------------------------------------------------------------------
     out: Optional[Path] = None
+    installed = False
     extra = {**report.file_extras(), "square_m": float(board.square_m)}
+    refused = not report.ok and not args.force
+    if refused and not args.no_save:
+        print("not saved: the calibration failed a sanity check (see 'problem:' above) — fix it and calibrate "
+              "again, or save it anyway with --force", file=sys.stderr, flush=True)
     try:
-        if not args.no_save:
+        if not args.no_save and not refused:
             if args.out:
                 out = save_calibration(args.out, report.calibration, extra)
                 print(f"saved {out}", flush=True)
             if not args.out or args.install:
-                installed = install_calibration(report.calibration, extra)
-                out = out or installed
-                print(f"saved {installed} (the app loads it at start)", flush=True)
-        if args.export_ros:
+                installed_path = install_calibration(report.calibration, extra)
+                installed = True
+                out = out or installed_path
+                print(f"saved {installed_path} (the app loads it at start)", flush=True)
+        if args.export_ros and not refused:
             for path in export_ros_camera_info(report.calibration, args.export_ros):
                 print(f"saved {path} (ROS camera_info)", flush=True)
     except OSError as exc:
         return _fail(f"cannot write the result: {exc}", 1)
     if args.json:
-        print(json.dumps(report.summary(str(out) if out else None)))
-    return 0
+        print(json.dumps({**report.summary(str(out) if out else None), "installed": installed,
+                          "forced": bool(args.force and not report.ok)}))
+    return 1 if refused else 0
 
 
 if __name__ == "__main__":  # pragma: no cover

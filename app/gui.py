@@ -23,10 +23,12 @@ import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.calibration_worker import CalibrationController
+from app.hand_eye import HandEyeController
 from app.preferences import WindowPreferences
 from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
 from core.messages import TargetMode
+from core.vision.markers import default_markers
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
 from core.vision.disparity import (
     PresetError,
@@ -46,6 +48,7 @@ from widgets.device_controls import DeviceControlsPanel
 from widgets.estop import EStopButton, RearmButton
 from widgets.help_dialog import HelpDialog
 from widgets.joint_readout import JointReadout
+from widgets.markers_table import MarkersTable
 from widgets.pose_panel import PosePanel, pose_panel_applies, pose_target_from_matrix
 from widgets.status import Banner, StatusBarItems
 from widgets.stereo_panel import StereoPanel
@@ -93,6 +96,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._dirty = False
         self.calibration_controller: Optional[CalibrationController] = None
         self.help_dialog: Optional[HelpDialog] = None
+        self.hand_eye: Optional[HandEyeController] = None
         self._estop_dialogs: list = []  # open dialogs that show the e-stop state (set_estop)
         self._note_timer = QtCore.QTimer(self)
         self._note_timer.setSingleShot(True)
@@ -216,7 +220,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.tabs = QtWidgets.QTabWidget()
         self.tabs.setDocumentMode(True)
         self.tabs.tabBar().setExpanding(True)
-        self.tabs.setStyleSheet(f"QTabBar::tab {{ min-height: {TOUCH_PX}px; min-width: 60px; padding: 0 8px; }}")
+        self.tabs.setStyleSheet(f"QTabBar::tab {{ min-height: {TOUCH_PX}px; min-width: 44px; padding: 0 4px; }}")
         self.camera_page = self._build_camera_page()
         self.stereo_panel = StereoPanel()
         self.sgbm_panel = self.stereo_panel.sgbm  # the block-matching trackbars
@@ -240,13 +244,22 @@ class MainWindow(QtWidgets.QMainWindow):
         robot_layout = QtWidgets.QVBoxLayout(robot_page)
         robot_layout.setContentsMargins(0, 0, 0, 0)
         robot_layout.addWidget(self.joints)
+        self.hand_eye_button = touch_button("Calibrate camera→robot…")
+        self.hand_eye_button.setToolTip("Where the cameras are in the robot's frame: the arm carries its tool "
+                                        "marker through a sweep (or touch markers on the desk)")
+        self.hand_eye_button.clicked.connect(self.on_open_hand_eye)
+        robot_layout.addWidget(self.hand_eye_button)
         robot_layout.addWidget(self.view_3d_button)
         robot_layout.addWidget(self.bridge_picker)
         robot_layout.addStretch(1)
         pages = [(self.target_panel, "Target")]
         if self.pose_panel is not None:
             pages.append((self.pose_panel, "Pose"))
-        pages += [(self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (robot_page, "Robot")]
+        self.markers_table = MarkersTable()
+        self.markers_table.set_config(s.markers or default_markers())
+        self.markers_table.sigMarkerChosen.connect(self.on_marker_chosen)
+        pages += [(self.markers_table, "Markers"), (self.camera_page, "Camera"), (self.stereo_panel, "Stereo"),
+                  (robot_page, "Robot")]
         for widget, title in pages:
             # vertical-only and never narrower than its page, so the splitter leaves the panel
             # room for it (no sideways scrolling, no clipped buttons at 800x480)
@@ -404,6 +417,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._status_timer.stop()
         if self.calibration_controller is not None:
             self.calibration_controller.close()  # stops and joins the wizard's worker
+        if self.hand_eye is not None:
+            self.hand_eye.close()
         self.workers.stop()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
@@ -453,6 +468,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._result = result
         if self.calibration_controller is not None:
             self.calibration_controller.feed(result.frame)  # newest only; ignored while closed
+        if self.hand_eye is not None:
+            self.hand_eye.on_result(result)  # the camera→robot sweep steps with each frame
         now = time.monotonic()
         self._frame_times.append(now)
         while self._frame_times and now - self._frame_times[0] > 2.0:
@@ -651,6 +668,37 @@ class MainWindow(QtWidgets.QMainWindow):
         self.calibration_controller.set_estop(not self.session.controller.armed)
         self.calibration_controller.open(self)
 
+    @QtCore.Slot()
+    def on_open_hand_eye(self):
+        """Robot tab → Calibrate camera→robot…: the hand-eye wizard (its own STOP)."""
+        if self.hand_eye is None:
+            self.hand_eye = HandEyeController(self)
+            self.hand_eye.sigStopRequested.connect(self.on_stop_requested)
+            self.hand_eye.sigCalibrationInUse.connect(self.on_hand_eye_in_use)
+        self.hand_eye.set_estop(not self.session.controller.armed)
+        return self.hand_eye.open()
+
+    @QtCore.Slot(object, str)
+    def on_hand_eye_in_use(self, result, path: str) -> None:
+        self._show_note(f"camera→robot calibration in use ({result.rms_mm:.1f} mm RMS) — saved to {path}")
+        self._refresh_status()
+        self._mark_dirty()
+
+    @QtCore.Slot(int)
+    def on_marker_chosen(self, marker_id: int) -> None:
+        """A row of the Markers table: do what the markers file says for that id (follow it, or
+        point at it)."""
+        spec = self.markers_table.config.marker(marker_id)
+        action = spec.action if spec is not None else "follow"
+        if action == "follow":
+            self.target_panel.set_mode(TargetMode.FOLLOW.value)
+            self.on_mode_changed(TargetMode.FOLLOW.value)
+        elif self.session.targeter.mode is TargetMode.FOLLOW:
+            self.target_panel.set_mode(TargetMode.MANUAL.value)
+            self.on_mode_changed(TargetMode.MANUAL.value)
+        self.on_marker_clicked(marker_id)
+        self.markers_table.set_chosen(marker_id)
+
     @QtCore.Slot(object)
     def on_board_shown(self, board) -> None:
         """The wizard is capturing ``board`` (None: closed): the simulated desk holds one up."""
@@ -753,6 +801,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.rearm_button.setVisible(engaged)
         if self.calibration_controller is not None:
             self.calibration_controller.set_estop(engaged)
+        if self.hand_eye is not None:
+            self.hand_eye.set_estop(engaged)
         for dialog in self._estop_dialogs:
             dialog.set_estop(engaged)
         self._restore_banner()
@@ -923,6 +973,10 @@ class MainWindow(QtWidgets.QMainWindow):
                 overlays = [o for o in (MarkerOverlay.from_observation(m, side, "" if compact else None)
                                         for m in r.markers) if o is not None]
                 view.set_markers(overlays)
+        if r is not None and self.tabs.currentWidget().widget() is self.markers_table:
+            tool = (None if self._state is None
+                    else tuple(float(v) for v in np.asarray(s.kinematics.fk(self._state.q), float)[:3]))
+            self.markers_table.update(r.markers, tool)
         twin = self.twin_stack.currentWidget()  # only the visible twin is redrawn
         if r is not None and r.frame is not None:
             twin.set_markers({m.marker_id: np.asarray(m.base_p_centre) for m in r.markers if m.found and m.base_p_centre is not None})
@@ -945,6 +999,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.target_panel.set_reach_status(f"arm holding still — {s.controller.note or 'paused'}", False)
             elif not goal.valid:
                 self.target_panel.set_reach_status(goal.note or "target lost — holding", False)
+            elif s.controller.workspace_note:  # below the desk, in a keep-out box: say which
+                self.target_panel.set_reach_status(s.controller.workspace_note, False)
             elif cmd is not None and not cmd.reachable:
                 self.target_panel.set_reach_status(
                     f"out of reach by {cmd.reach_error_m * 1e3:.0f} mm — going to the nearest point", False)
@@ -976,7 +1032,7 @@ class MainWindow(QtWidgets.QMainWindow):
             # green only for a working connection: a failed switch keeps the old bridge
             # connected but says "could not switch to … — still on …": warning colour
             self.bridge_picker.show_bridge_status(b)
-        self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms)
+        self.status_items.update(s.camera.name, bridge_text, fps, self._latency_ms, s.camera_to_robot_state())
 
 
 # --- what a new worker message changes on screen (pure: tested without a window) -------------

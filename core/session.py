@@ -5,6 +5,7 @@ headless metrics measure is what the window shows.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
@@ -14,6 +15,7 @@ import numpy as np
 from core.clock import SimClock, WallClock
 from core.devices import open_bridge
 from core.devices.bridge import MotorBridge, parse_bridge_url
+from core.handeye import HandEyeResult, ToolMarker, tool_marker_of
 from core.kinematics import build_kinematics, load_profile
 from core.messages import TargetMode
 from core.motion.control import ArmController
@@ -27,6 +29,7 @@ from core.vision.calibration import (
     save_calibration,
 )
 from core.vision.cameras import CameraSource, open_camera, parse_camera_spec
+from core.vision.markers import MarkersConfig, load_markers, markers_for_session
 from core.vision.perception import StereoMarkerPerception
 
 SCENARIOS = ("static", "cups", "wander")
@@ -45,14 +48,22 @@ class SessionOptions:
     marker_ids: tuple[int, ...] = (23, 50)
     calibration: Optional[str] = None  # path; default: the last saved one for real cameras
     event_driven: bool = True  # control step at once on a new goal (False: only on the 50 Hz tick)
+    # simulated desk only: the rig mounted off its nominal pose (dx, dy, dz m, roll, pitch, yaw rad)
+    rig_offset: Optional[tuple[float, float, float, float, float, float]] = None
+    hand_eye: Optional[str] = None  # camera→robot TOML; default: the saved one when it is for this pair
+    markers: Optional[str] = None  # markers TOML (dictionary, ids, names, actions); default: the config folder's
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
+        if self.rig_offset is not None:
+            check_rig_offset_option(self.rig_offset)
         parse_camera_spec(self.camera)
         parse_bridge_url(self.bridge)
         if self.scenario not in SCENARIOS:
             raise ValueError(f"unknown --scenario value {self.scenario!r}; valid: {', '.join(SCENARIOS)}")
         load_profile(self.robot)  # raises ProfileError naming the valid profiles
+        if self.markers:
+            load_markers(self.markers)  # raises MarkersError naming the file and the key
 
 
 @dataclass
@@ -71,6 +82,10 @@ class DeskSession:
     bridge: MotorBridge
     banners: list[str] = field(default_factory=list)
     ball_finder: BallFinder = field(default_factory=BallFinder)
+    hand_eye: Optional[HandEyeResult] = None  # the camera→robot calibration in use (None: nominal/exact)
+    camera_to_robot: str = ""  # status-bar text, see camera_to_robot_state()
+    tool_marker: Optional[ToolMarker] = None  # the marker the arm carries (hand-eye sweep)
+    markers: Optional[MarkersConfig] = None  # the markers the user configured (names, actions)
 
     @classmethod
     def create(cls, options: SessionOptions) -> "DeskSession":
@@ -86,19 +101,51 @@ class DeskSession:
         calibration, note = load_session_calibration(camera, options.calibration)
         if note:
             banners.append(note)
-        base_T_camera = camera.base_T_camera()
-        if base_T_camera is None:
-            from core.sim.rig import SimRig
-
-            base_T_camera = SimRig().base_T_camera  # nominal mount until a hand-eye step exists
-        perception = StereoMarkerPerception(calibration, base_T_camera, marker_ids=options.marker_ids)
+        offset = tuple(options.rig_offset) if options.rig_offset is not None else None
+        if offset is not None and any(offset):
+            if hasattr(camera, "set_rig_offset"):
+                camera.set_rig_offset(offset)
+            else:
+                banners.append(f"--rig-offset only moves the simulated desk's rig; {camera.name} ignores it")
+        tool_marker = tool_marker_of(profile)
+        if hasattr(camera, "set_tool_marker"):
+            try:  # the simulated arm carries the tool marker
+                camera.set_tool_marker(tool_marker)
+            except ValueError as exc:
+                banners.append(f"simulated tool marker not drawn: {exc}")
+        base_T_camera, hand_eye, state, note = resolve_base_T_camera(camera, options.hand_eye)
+        if note:
+            banners.append(note)
+        markers, note = markers_for_session(options.markers)
+        if note:
+            banners.append(note)
+        ids = markers.ids if (options.markers or markers.source) else tuple(options.marker_ids)
+        perception = StereoMarkerPerception(calibration, base_T_camera, marker_ids=ids, dictionary=markers.dictionary)
         mode = TargetMode.CUPS if options.scenario == "cups" else TargetMode.FOLLOW
-        targeter = Targeter(clock, mode=mode, follow_id=options.marker_ids[0], cup_ids=options.marker_ids[:2],
+        targeter = Targeter(clock, mode=mode, follow_id=ids[0], cup_ids=ids[:2],
                             lissajous=lissajous_for(profile, kinematics))
         controller = ArmController(profile, kinematics)
         bridge = open_bridge(options.bridge, profile, clock=clock)
         return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
-                   controller, bridge, banners)
+                   controller, bridge, banners, hand_eye=hand_eye, camera_to_robot=state, tool_marker=tool_marker,
+                   markers=markers)
+
+    def use_hand_eye(self, result: HandEyeResult, path=None) -> None:
+        """A camera→robot calibration saved from the window: perception maps to robot_base with
+        it from the next frame on, and the status bar says so."""
+        self.perception.base_T_camera = np.asarray(result.base_T_camera, dtype=np.float64).copy()
+        self.hand_eye = result
+        self.camera_to_robot = f"camera→robot: calibrated, {result.rms_mm:.1f} mm RMS"
+
+    def camera_to_robot_state(self) -> str:
+        """Status-bar text: "camera→robot: calibrated, 1.8 mm RMS", "camera→robot: NOMINAL — run
+        calibration" or "camera→robot: simulated rig (exact)"."""
+        return self.camera_to_robot
+
+    @property
+    def hand_eye_pair_id(self) -> str:
+        """The camera pair id a hand-eye file of this session's cameras names."""
+        return hand_eye_pair_id(self.camera)
 
     def control_schedule(self):
         """A fresh ControlSchedule for this session's controller and bridge (its rate cap)."""
@@ -138,6 +185,63 @@ def freeze_startup_objects() -> None:
 
     gc.collect()
     gc.freeze()
+
+
+def check_rig_offset_option(offset) -> tuple[float, ...]:
+    """``--rig-offset`` as 6 floats (m, rad), or ValueError naming the option and the limits."""
+    try:
+        values = tuple(float(v) for v in offset)
+    except (TypeError, ValueError):
+        values = ()
+    if len(values) != 6 or not all(map(math.isfinite, values)):
+        raise ValueError(f"--rig-offset {offset!r}: need 6 finite numbers DX,DY,DZ,ROLL,PITCH,YAW (m, degrees)")
+    if any(abs(v) > 0.2 for v in values[:3]) or any(abs(v) > math.radians(30.0) + 1e-12 for v in values[3:]):
+        raise ValueError(f"--rig-offset is outside the valid range: |DX|,|DY|,|DZ| ≤ 0.2 m and "
+                         f"|ROLL|,|PITCH|,|YAW| ≤ 30°")
+    return values
+
+
+def hand_eye_pair_id(camera) -> str:
+    """The pair id a hand-eye file must name for ``camera`` (a moved simulated rig is another pair)."""
+    return str(getattr(camera, "hand_eye_pair_id", None) or camera.pair_id)
+
+
+def resolve_base_T_camera(camera, hand_eye_path: Optional[str]):
+    """(base_T_camera, HandEyeResult or None, status text, banner) for the session's perception.
+
+    A given ``hand_eye_path`` must load (ValueError naming the file otherwise); without one the
+    saved default is used when it is for this camera pair. A file for another pair is ignored
+    with a banner. The simulated desk's exact rig needs no file.
+    """
+    from core.handeye import HandEyeFileError, default_hand_eye_path, load_hand_eye
+
+    nominal = camera.base_T_camera()
+    if nominal is None:
+        from core.sim.rig import SimRig
+
+        nominal = SimRig().base_T_camera  # nominal mount until a hand-eye calibration exists
+    true_T = getattr(camera, "true_base_T_camera", None)
+    exact_sim = camera.kind == "sim" and true_T is not None and np.allclose(true_T(), nominal)
+    nominal_state = ("camera→robot: simulated rig (exact)" if exact_sim
+                     else "camera→robot: NOMINAL — run calibration")
+    pair = hand_eye_pair_id(camera)
+    if hand_eye_path:
+        try:
+            result, warning = load_hand_eye(hand_eye_path, expected_pair=pair)
+        except HandEyeFileError as exc:
+            raise ValueError(f"--hand-eye: {exc}") from None
+    else:
+        path = default_hand_eye_path()
+        if exact_sim or not path.is_file():
+            return nominal, None, nominal_state, ""
+        try:
+            result, warning = load_hand_eye(path, expected_pair=pair)
+        except HandEyeFileError as exc:
+            return nominal, None, nominal_state, f"camera→robot NOMINAL: {exc}"
+    if warning:
+        return nominal, None, nominal_state, f"camera→robot NOMINAL: {warning}"
+    return (np.asarray(result.base_T_camera, float), result,
+            f"camera→robot: calibrated, {result.rms_mm:.1f} mm RMS", "")
 
 
 def lissajous_for(profile, kinematics):

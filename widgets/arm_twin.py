@@ -37,6 +37,9 @@ PREVIEW_COLOUR = (230, 100, 230, 110)
 MARKER_COLOUR = (60, 220, 230)
 DESK_COLOUR = (150, 110, 70)
 STRUCTURE_COLOUR = (150, 150, 150)  # fixed parts from the profile: delta base plate, UMI-RTX column
+KEEP_OUT_COLOUR = (235, 40, 40)  # the profile's keep-out boxes: red outline …
+KEEP_OUT_FILL_ALPHA = 50  # … over a translucent red fill
+DESK_MARGIN_COLOUR = (235, 40, 40, 160)  # the desk margin line (side view), dashed
 GRID_STEP_CM = 10.0
 GRID_EXTENT_CM = 200.0
 
@@ -250,6 +253,59 @@ def structure_segments(profile: Any, kinematics: Any = None) -> list[np.ndarray]
             ends.append(np.asarray(kinematics.chain_points(q), dtype=float)[1])
         return [np.array([(ends[0][0], ends[0][1], 0.0), ends[1]])]  # from the desk up
     return []
+
+
+def keep_out_boxes_for(profile: Any) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The profile's keep-out boxes as (name, min (3,), max (3,)) in m, robot_base; [] without."""
+    workspace = getattr(profile, "workspace", None)
+    boxes = getattr(workspace, "keep_out", ()) or ()
+    return [(b.name, np.asarray(b.min_m, dtype=float), np.asarray(b.max_m, dtype=float)) for b in boxes]
+
+
+def desk_margin_for(profile: Any) -> float:
+    """The profile's desk margin (m): no moving arm point lower; 0 without a workspace."""
+    workspace = getattr(profile, "workspace", None)
+    return float(getattr(workspace, "desk_margin_m", 0.0) or 0.0)
+
+
+def box_top_outline(box_min: Sequence[float], box_max: Sequence[float]) -> np.ndarray:
+    """A box's footprint as a closed (5,2) x, y polyline (m)."""
+    x0, y0, x1, y1 = float(box_min[0]), float(box_min[1]), float(box_max[0]), float(box_max[1])
+    return np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)])
+
+
+def box_side_section(box_min: Sequence[float], box_max: Sequence[float],
+                     azimuth_rad: float) -> Optional[np.ndarray]:
+    """Where a box cuts the side view's plane (the vertical plane through the base axis at
+    ``azimuth_rad``): a closed (5,2) s, z rectangle (m), or None when the plane misses it.
+
+    The section, not the box's shadow: the serial arms move in that plane, so what it cuts is
+    what the arm can hit there; a box beside the plane shows in the top view only.
+    """
+    d = (math.cos(azimuth_rad), math.sin(azimuth_rad))
+    s0, s1 = -math.inf, math.inf
+    for axis in (0, 1):
+        lo, hi = float(box_min[axis]), float(box_max[axis])
+        if abs(d[axis]) < 1e-12:
+            if not lo <= 0.0 <= hi:
+                return None
+            continue
+        a, b = lo / d[axis], hi / d[axis]
+        s0, s1 = max(s0, min(a, b)), min(s1, max(a, b))
+    if not s0 <= s1:
+        return None
+    z0, z1 = float(box_min[2]), float(box_max[2])
+    return np.array([(s0, z0), (s1, z0), (s1, z1), (s0, z1), (s0, z0)])
+
+
+def outlines_with_gaps(outlines: Sequence[np.ndarray]) -> np.ndarray:
+    """2D polylines (each (N,2)) as one (M,2) array with NaN rows between them (empty: (0,2))."""
+    parts = []
+    for o in outlines:
+        if parts:
+            parts.append(np.full((1, 2), np.nan))
+        parts.append(np.asarray(o, dtype=float).reshape(-1, 2))
+    return np.vstack(parts) if parts else np.zeros((0, 2))
 
 
 def chain_start_for(profile: Any) -> int:
@@ -571,6 +627,11 @@ class _ViewItems:
                                           connect="finite")
         self.structure = pg.PlotCurveItem(pen=pg.mkPen(STRUCTURE_COLOUR, width=3),
                                           connect="finite")
+        # keep-out boxes: closed outlines (NaN rows between boxes), each filled translucent red
+        self.keep_out = pg.PlotCurveItem(pen=pg.mkPen(KEEP_OUT_COLOUR, width=2), connect="finite",
+                                         fillLevel="enclosed",
+                                         brush=pg.mkBrush(*KEEP_OUT_COLOUR, KEEP_OUT_FILL_ALPHA))
+        self.keep_out.setVisible(False)
         self.preview = pg.PlotDataItem(pen=pg.mkPen(PREVIEW_COLOUR, width=1))
         self.commanded = pg.PlotDataItem(pen=pg.mkPen(COMMANDED_COLOUR, width=2,
                                                       style=QtCore.Qt.PenStyle.DashLine))
@@ -598,7 +659,7 @@ class _ViewItems:
         self._label_points = np.zeros((0, 2))  # where the shown labels' dots are, (n,2) view cm
         self.joints.setVisible(False)
         self.extra_points.setVisible(False)
-        for z, item in enumerate((self.workspace, self.structure, self.preview, self.base,
+        for z, item in enumerate((self.keep_out, self.workspace, self.structure, self.preview, self.base,
                                   self.markers, self.commanded, self.extra, self.extra_points,
                                   self.measured, self.joints, self.aim_line, self.aimed,
                                   self.target)):
@@ -934,6 +995,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._markers: dict[int, np.ndarray] = {}
         self._structure: Optional[np.ndarray] = None
         self._chain_start = 0  # chain points before this index are not drawn (chain_start_for)
+        self._keep_out: list[tuple[str, np.ndarray, np.ndarray]] = []  # (name, min, max) m
+        self._desk_margin = 0.0  # m; the side view's dashed line
+        self._drawn_keep_out_azimuth: Optional[float] = None  # the side sections are for this plane
         self._level_brush = {k: pg.mkBrush(*LEVEL_COLOURS[k]) for k in LEVELS}
         self._level_pen = {"ok": pg.mkPen("k", width=1), "warn": pg.mkPen("w", width=2),
                            "limit": pg.mkPen("w", width=2)}
@@ -948,6 +1012,11 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
                                fillLevel=-1e4, brush=pg.mkBrush(*DESK_COLOUR, 60))
         desk.setZValue(-10)
         self.side_plot.addItem(desk)
+        self._margin_line = pg.PlotDataItem(pen=pg.mkPen(DESK_MARGIN_COLOUR, width=1,
+                                                         style=QtCore.Qt.PenStyle.DashLine))
+        self._margin_line.setZValue(-9)
+        self._margin_line.setVisible(False)
+        self.side_plot.addItem(self._margin_line)
 
         # The legend is a row of text under the plots rather than a pg.LegendItem: on a small
         # screen an in-plot legend hides the arm, and pyqtgraph's hides a curve when tapped.
@@ -1002,9 +1071,43 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._structure = polylines_with_gaps(structure_segments(profile, kinematics))
         self._top.structure.setData(*_xy(self._structure), connect="finite")
         self._levels = None
+        self.set_keep_out(keep_out_boxes_for(profile), desk_margin_for(profile))
         self.set_extra_segments(None)
         self.set_arm(None, None)
         self.set_side_azimuth(side_azimuth_for(profile))
+
+    def set_keep_out(self, boxes: Sequence[tuple[str, Sequence[float], Sequence[float]]],
+                     desk_margin_m: float = 0.0) -> None:
+        """Draw keep-out boxes — (name, min, max) in m, robot_base — outlined in translucent red:
+        their footprints in the top view and their section by the arm plane in the side view;
+        and the desk margin as a dashed red line in the side view (none when 0)."""
+        self._keep_out = [(str(n), np.asarray(lo, dtype=float).reshape(3), np.asarray(hi, dtype=float).reshape(3))
+                          for n, lo, hi in boxes]
+        self._desk_margin = float(desk_margin_m)
+        top = outlines_with_gaps([box_top_outline(lo, hi) for _, lo, hi in self._keep_out]) * M_TO_CM
+        self._top.keep_out.setData(top[:, 0], top[:, 1], connect="finite")
+        self._top.keep_out.setVisible(len(top) > 0)
+        if self._desk_margin > 0.0:
+            z = self._desk_margin * M_TO_CM
+            self._margin_line.setData([-1e4, 1e4], [z, z])
+        self._margin_line.setVisible(self._desk_margin > 0.0)
+        self._drawn_keep_out_azimuth = None
+        self._draw_side_keep_out()
+
+    def keep_out_outlines(self, view: str = "top") -> np.ndarray:
+        """The keep-out outlines drawn in ``view``: (M,2) cm, x, y ("top") or s, z ("side"),
+        NaN rows between boxes; (0,2) when none is drawn."""
+        item = (self._top if view == "top" else self._side).keep_out
+        if not item.isVisible():
+            return np.zeros((0, 2))
+        x, y = item.getData()
+        return np.column_stack([x, y]) if x is not None else np.zeros((0, 2))
+
+    def desk_margin_line_cm(self) -> Optional[float]:
+        """Height (cm) of the desk margin line in the side view, or None when not drawn."""
+        if not self._margin_line.isVisible():
+            return None
+        return float(self._margin_line.getData()[1][0])
 
     def set_side_azimuth(self, azimuth_rad: Optional[float]) -> None:
         """Pin the side view to the vertical plane at ``azimuth_rad`` (rad), or None to follow
@@ -1128,8 +1231,23 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._redraw_side_extras()
         self._draw_joints()
 
+    def _draw_side_keep_out(self) -> None:
+        """The boxes' sections by the side view's plane (only when the plane moved)."""
+        if self._drawn_keep_out_azimuth == self._azimuth:
+            return
+        self._drawn_keep_out_azimuth = self._azimuth
+        item = self._side.keep_out
+        sections = [box_side_section(lo, hi, self._azimuth) for _, lo, hi in self._keep_out]
+        side = outlines_with_gaps([sec for sec in sections if sec is not None]) * M_TO_CM
+        if len(side) == 0 and not item.isVisible():
+            return
+        item.setData(side[:, 0], side[:, 1], connect="finite")
+        item.setVisible(len(side) > 0)
+
     def _redraw_side_extras(self) -> None:
-        """Re-project what depends on the azimuth (target, preview, markers, extra chains)."""
+        """Re-project what depends on the azimuth (target, preview, markers, extra chains,
+        keep-out sections)."""
+        self._draw_side_keep_out()
         _set_curve(self._side.preview, *self._side_xy(self._preview))
         self._draw_extra(self._side, self._side_xy)
         self._draw_target()

@@ -27,6 +27,7 @@ from widgets.arm_twin import (
     M_TO_CM,
     MARKER_COLOUR,
     MEASURED_COLOUR,
+    KEEP_OUT_COLOUR,
     PREVIEW_COLOUR,
     REACHABLE_COLOUR,
     STRUCTURE_COLOUR,
@@ -36,6 +37,7 @@ from widgets.arm_twin import (
     chain_start_for,
     joint_anchors_for,
     joint_dot_positions,
+    keep_out_boxes_for,
     make_legend_label,
     polylines_with_gaps,
     same_chains,
@@ -166,6 +168,14 @@ def segment_pairs(points: Optional[np.ndarray]) -> np.ndarray:
     return out
 
 
+def box_edges(box_min: Sequence[float], box_max: Sequence[float]) -> np.ndarray:
+    """The 12 edges of an axis-aligned box as GL "lines" pairs, (24,3), in the boxes' units."""
+    lo, hi = np.asarray(box_min, dtype=float).reshape(3), np.asarray(box_max, dtype=float).reshape(3)
+    corners = np.array([[(hi if (i >> k) & 1 else lo)[k] for k in range(3)] for i in range(8)])
+    pairs = [(i, i | (1 << k)) for i in range(8) for k in range(3) if not (i >> k) & 1]
+    return np.array([corners[j] for pair in pairs for j in pair])
+
+
 def _plane_points(sz_m: np.ndarray, azimuth_rad: float) -> np.ndarray:
     """(s, z) rows in the vertical plane at ``azimuth_rad`` as robot_base points (N,3)."""
     sz = np.asarray(sz_m, dtype=float).reshape(-1, 2)
@@ -242,6 +252,7 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
 
         self.workspace = lines(WORKSPACE_COLOUR, 1)
         self.structure = lines(STRUCTURE_COLOUR, 3)
+        self.keep_out = lines(KEEP_OUT_COLOUR, 2)  # the profile's keep-out boxes, wireframe
         self.preview = lines(PREVIEW_COLOUR, 1)
         self.commanded = lines(COMMANDED_COLOUR, 2)
         self.extra = lines(MEASURED_COLOUR, 4)
@@ -258,7 +269,7 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
             item.setVisible(False)
         # drawn in this order (the dots have no depth test): dots over lines,
         # the joint levels over the chain's own dots
-        for depth, item in enumerate((self.workspace, self.structure, self.preview,
+        for depth, item in enumerate((self.workspace, self.structure, self.keep_out, self.preview,
                                       self.commanded, self.extra, self.measured, self.aim_line,
                                       self.target, self.base, self.markers,
                                       self.measured_points, self.joints, self.aimed)):
@@ -320,10 +331,18 @@ class ArmTwin3D(TwinBase, QtWidgets.QWidget):
         structure = polylines_with_gaps(structure_segments(profile, kinematics))
         self.structure.setData(pos=segment_pairs(None if structure is None
                                                  else structure * M_TO_CM))
+        self.set_keep_out(keep_out_boxes_for(profile))
         self._levels = None
         self.set_extra_segments(None)
         self.set_arm(None, None)
         self.set_side_azimuth(side_azimuth_for(profile))
+
+    def set_keep_out(self, boxes: Sequence[tuple[str, Sequence[float], Sequence[float]]],
+                     desk_margin_m: float = 0.0) -> None:
+        """Draw keep-out boxes — (name, min, max) in m, robot_base — as red wireframes
+        (``desk_margin_m`` is accepted for the 2D twin's signature; the desk plane is drawn)."""
+        edges = [box_edges(lo, hi) * M_TO_CM for _, lo, hi in boxes]
+        self.keep_out.setData(pos=np.vstack(edges) if edges else np.zeros((0, 3)))
 
     def set_view_range(self, xy_half_width_m: float, z_max_m: float,
                        z_min_m: Optional[float] = None) -> None:

@@ -723,7 +723,8 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.remove_worst_button.setEnabled(ok and bool(self._worst))
         self.remove_worst_button.setText(f"Remove worst (#{self._worst[0]})" if self._worst else "Remove worst")
         self.remove_selected_button.setEnabled(ok and bool(self.pair_list.selectedItems()))
-        self.save_button.setEnabled(ok)
+        report = self.report_update.report if self.report_update is not None else None
+        self.save_button.setEnabled(ok and bool(getattr(report, "ok", True)))  # never install a failed check
         self.more_button.setEnabled(not self._busy)
 
     def _on_selection_changed(self) -> None:
@@ -919,10 +920,14 @@ class CalibrationWizard(QtWidgets.QDialog):
         verdict = rms_verdict(rep.rms_stereo, rep.epipolar_error_px)
         summary = (f"{rep.pairs_used} of {rep.pairs_total} pairs used · baseline {c.baseline_m * 1e3:.1f} mm · "
                    f"fx {c.M1[0, 0]:.0f} / {c.M2[0, 0]:.0f} px · {rep.duration_s:.1f} s")
+        problems = list(getattr(rep, "problems", ()) or ())
         notes = [verdict] if verdict else ["good: errors below 0.5 px"]
+        if problems:  # a sanity check failed: said first, and Save and use stays off
+            notes = [f"NOT INSTALLABLE — {p}" for p in problems] + notes
         notes += list(rep.notes)
         self.summary_label.setText(summary + "\n" + "\n".join(notes))
-        self.summary_label.setStyleSheet(f"QLabel {{ color: {ERROR_COLOUR if 'warning' in verdict else WARN_COLOUR if verdict else OK_COLOUR}; }}")
+        bad = problems or "warning" in verdict
+        self.summary_label.setStyleSheet(f"QLabel {{ color: {ERROR_COLOUR if bad else WARN_COLOUR if verdict else OK_COLOUR}; }}")
         used = sum(p.used for p in rep.pairs)
         self._worst = [update.numbers[k] for k in rep.worst(worst_count(used))]
         self._fill_pairs(update)

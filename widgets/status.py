@@ -184,6 +184,7 @@ class StatusBarItems:
 
     def __init__(self, status_bar: QtWidgets.QStatusBar | None = None) -> None:
         self.camera_label = ElidedLabel("camera: —")
+        self.robot_label = ElidedLabel("camera→robot: —")  # the hand-eye state
         self.bridge_label = ElidedLabel("bridge: —")
         self.fps_label = FixedWidthLabel("— fps", FPS_WIDEST)
         self.latency_label = FixedWidthLabel("latency — ms", LATENCY_WIDEST)
@@ -198,22 +199,27 @@ class StatusBarItems:
             self.add_to(status_bar)
 
     def labels(self) -> list[QtWidgets.QLabel]:
-        """The four labels, left to right."""
-        return [self.camera_label, self.bridge_label, self.fps_label, self.latency_label]
+        """The five labels, left to right."""
+        return [self.camera_label, self.robot_label, self.bridge_label, self.fps_label, self.latency_label]
 
     def add_to(self, status_bar: QtWidgets.QStatusBar) -> None:
         """Add the labels to ``status_bar`` as permanent (right-aligned) widgets."""
         for label in self.labels():
             status_bar.addPermanentWidget(label)
 
-    def update(self, camera: str, bridge: str, fps: float, latency_ms: float) -> None:
-        """Show the camera and bridge states, frames per second and end-to-end latency.
+    def update(self, camera: str, bridge: str, fps: float, latency_ms: float, camera_to_robot: str = "") -> None:
+        """Show the camera and bridge states, frames per second and end-to-end latency, and the
+        camera→robot calibration state ("camera→robot: NOMINAL — run calibration" in orange).
 
         Only labels whose text or colour changed are touched: a style sheet set again, even
         the same one, re-polishes the label and re-lays out the status bar.
         """
         _set_label(self.camera_label, f"camera: {camera}", _state_style(camera))
         _set_label(self.bridge_label, f"bridge: {bridge}", _state_style(bridge))
+        if camera_to_robot:
+            state = camera_to_robot.split(":", 1)[-1].strip()
+            _set_label(self.robot_label, camera_to_robot, _state_style("ok" if state.startswith(("calibrated", "sim"))
+                                                                        else state))
         _set_label(self.fps_label, "— fps" if not math.isfinite(fps) else f"{fps:.1f} fps")
         _set_label(self.latency_label, "latency — ms" if not math.isfinite(latency_ms)
                    else f"latency {latency_ms:.0f} ms")

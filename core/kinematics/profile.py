@@ -28,6 +28,13 @@ A joint is either a hobby servo (``servo_min_deg``/``servo_max_deg``/``offset_de
 in joint units (rad for revolute joints, m for prismatic ones). ``q_min``/``q_max``/``q_home``
 work for both; servo angles exist only for servo joints.
 
+Every kind may add a ``[workspace]`` table — ``desk_margin_m`` (default 0.005 m: no moving part
+of the arm closer to the desk plane z = 0) and ``[[workspace.keep_out]]`` boxes (``name``,
+``min = [x, y, z]``, ``max = [x, y, z]`` in m, robot_base) that no arm segment may enter; the
+control step enforces them (``core.motion.safety.workspace_violation``) — and a
+``[tool_marker]`` table (``id``, ``offset_m = [x, y, z]`` from the tool point in robot_base
+axes, ``size_m``): an ArUco marker fixed to the tool, for hand-eye calibration.
+
 A new kind adds a geometry parser to ``_GEOMETRY_PARSERS``, its joint count to
 ``_JOINT_COUNTS`` (None: the geometry decides) and a solver to ``core.kinematics.SOLVERS``;
 ``core.kinematics.build_kinematics`` then hands out the right solver.
@@ -36,7 +43,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence, Union
 
@@ -59,6 +66,12 @@ DEFAULT_PRISMATIC_SPEED_M_S = 0.1  # a prismatic joint without a velocity limit
 DEFAULT_ACCELERATION_RAD_S2 = 10.0  # a revolute joint without an acceleration limit
 DEFAULT_ACCELERATION_M_S2 = 0.5  # a prismatic joint without an acceleration limit
 JOINT_TYPES = ("revolute", "prismatic")
+DEFAULT_DESK_MARGIN_M = 0.005  # no arm point closer to the desk than this by default
+MAX_DESK_MARGIN_M = 0.1  # workspace.desk_margin_m: 0 … this
+KEEP_OUT_LIMIT_M = 5.0  # |coordinate| of a keep-out box corner, m
+TOOL_MARKER_MAX_ID = 999  # tool_marker.id: 0 … this
+TOOL_MARKER_OFFSET_LIMIT_M = 0.2  # |tool_marker.offset_m| per axis, m
+TOOL_MARKER_SIZE_RANGE_M = (0.005, 0.2)  # tool_marker.size_m: the marker's side, m
 
 
 
@@ -275,6 +288,48 @@ class GripperSpec:
 
 
 @dataclass(frozen=True)
+class KeepOutBox:
+    """An axis-aligned box in robot_base that no part of the arm may enter (a monitor, a lamp)."""
+
+    name: str  # shown in the reason, e.g. "monitor"
+    min_m: tuple[float, float, float]  # lowest corner (x, y, z), m, robot_base, each in ±5 m
+    max_m: tuple[float, float, float]  # highest corner, m, > min_m on every axis, each in ±5 m
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "min_m", tuple(float(v) for v in self.min_m))
+        object.__setattr__(self, "max_m", tuple(float(v) for v in self.max_m))
+        _check_box("", f"keep-out box {self.name!r}: ", self.name, self.min_m, self.max_m)
+
+
+@dataclass(frozen=True)
+class WorkspaceSpec:
+    """Where the arm may be: above the desk plane by a margin, and outside keep-out boxes."""
+
+    desk_margin_m: float = DEFAULT_DESK_MARGIN_M  # no moving arm point below z = this, m, 0 … 0.1
+    keep_out: tuple[KeepOutBox, ...] = ()  # boxes no arm segment may enter
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "keep_out", tuple(self.keep_out))
+        _check_range("", "workspace.desk_margin_m", self.desk_margin_m, 0.0, MAX_DESK_MARGIN_M)
+        for i, box in enumerate(self.keep_out):
+            if not isinstance(box, KeepOutBox):
+                raise ProfileError(f"workspace.keep_out[{i}] must be a KeepOutBox, got {type(box).__name__}")
+
+
+@dataclass(frozen=True)
+class ToolMarkerSpec:
+    """An ArUco marker fixed to the tool, for hand-eye calibration."""
+
+    marker_id: int  # ArUco id, 0 … 999
+    offset_m: tuple[float, float, float]  # marker centre from the tool point, robot_base axes, m, each in ±0.2
+    size_m: float  # marker side, m, 0.005 … 0.2
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "offset_m", tuple(float(v) for v in self.offset_m))
+        _check_tool_marker("", "tool_marker.", self.marker_id, self.offset_m, self.size_m)
+
+
+@dataclass(frozen=True)
 class RobotProfile:
     """A validated robot description; read-only and shared by every worker."""
 
@@ -285,8 +340,12 @@ class RobotProfile:
     joints: tuple[JointSpec, ...]  # in kinematic order (q1, q2, …)
     source: str = ""  # the file it was read from ("" when built in code)
     gripper: Optional[GripperSpec] = None  # a gripper commanded beside the joints, if any
+    workspace: WorkspaceSpec = field(default_factory=WorkspaceSpec)  # desk margin and keep-out boxes (core.motion.safety)
+    tool_marker: Optional[ToolMarkerSpec] = None  # a marker on the tool for hand-eye calibration
 
     def __post_init__(self) -> None:
+        if not isinstance(self.workspace, WorkspaceSpec):
+            raise ProfileError(f"workspace must be a WorkspaceSpec, got {type(self.workspace).__name__}")
         if self.kind not in _JOINT_COUNTS:
             raise ProfileError(
                 f"kind = {self.kind!r} is unknown; expected one of {', '.join(_JOINT_COUNTS)}"
@@ -538,6 +597,30 @@ def _check_gripper(where: str, prefix: str, f: Mapping[str, Any]) -> None:
                  why="it must be > 0")
 
 
+def _check_box(where: str, prefix: str, name: Any, lo: Sequence[float], hi: Sequence[float]) -> None:
+    """Raise ProfileError unless ``lo``/``hi`` are 3 finite numbers in ±5 m with lo < hi per axis."""
+    if not isinstance(name, str) or not name.strip():
+        raise ProfileError(f"{where}{prefix}name = {name!r} must be a non-empty string")
+    for key, v in (("min", lo), ("max", hi)):
+        if len(v) != 3:
+            raise ProfileError(f"{where}{prefix}{key} = {list(v)!r} must be [x, y, z] (m, robot_base)")
+        for axis, c in zip("xyz", v):
+            _check_range(where, f"{prefix}{key} {axis}", c, -KEEP_OUT_LIMIT_M, KEEP_OUT_LIMIT_M)
+    for axis, a, b in zip("xyz", lo, hi):
+        if not a < b:
+            raise ProfileError(f"{where}{prefix}max {axis} = {b!r} must be greater than min {axis} = {a!r}")
+
+
+def _check_tool_marker(where: str, prefix: str, marker_id: Any, offset: Sequence[float], size: float) -> None:
+    if not isinstance(marker_id, int) or isinstance(marker_id, bool) or not 0 <= marker_id <= TOOL_MARKER_MAX_ID:
+        raise ProfileError(f"{where}{prefix}id = {marker_id!r} must be an integer 0…{TOOL_MARKER_MAX_ID}")
+    if len(offset) != 3:
+        raise ProfileError(f"{where}{prefix}offset_m = {list(offset)!r} must be [x, y, z] (m)")
+    for axis, c in zip("xyz", offset):
+        _check_range(where, f"{prefix}offset_m {axis}", c, -TOOL_MARKER_OFFSET_LIMIT_M, TOOL_MARKER_OFFSET_LIMIT_M)
+    _check_range(where, prefix + "size_m", size, *TOOL_MARKER_SIZE_RANGE_M)
+
+
 # --------------------------------------------------------------------------------------------
 # Reading TOML
 
@@ -581,6 +664,15 @@ class _Reader:
             raise self.fail(f"{path}{key} = {value!r} must be a string, got {_type_name(value)}")
         return value
 
+    def vector3(self, data: Mapping[str, Any], key: str, path: str) -> tuple[float, float, float]:
+        """``data[key]`` as three numbers ``[x, y, z]``; the key is required."""
+        if key not in data:
+            raise self.fail(f"missing key {path}{key} (three numbers [x, y, z])")
+        value = data[key]
+        if not isinstance(value, list) or len(value) != 3 or not all(_is_number(v) for v in value):
+            raise self.fail(f"{path}{key} = {value!r} must be three numbers [x, y, z], got {_type_name(value)}")
+        return (float(value[0]), float(value[1]), float(value[2]))
+
     def no_unknown_keys(self, data: Mapping[str, Any], allowed: Sequence[str], path: str) -> None:
         for key in data:
             if key not in allowed:
@@ -603,7 +695,10 @@ def _type_name(value: Any) -> str:
     return type(value).__name__
 
 
-_TOP_KEYS = ("name", "kind", "description", "geometry", "joints", "gripper")
+_TOP_KEYS = ("name", "kind", "description", "geometry", "joints", "gripper", "workspace", "tool_marker")
+_WORKSPACE_KEYS = ("desk_margin_m", "keep_out")
+_KEEP_OUT_KEYS = ("name", "min", "max")
+_TOOL_MARKER_KEYS = ("id", "offset_m", "size_m")
 _JOINT_KEYS = (
     "name",
     "servo_min_deg",
@@ -797,6 +892,45 @@ def _parse_gripper(rd: _Reader, data: Mapping[str, Any]) -> Optional[GripperSpec
                        **{k: float(v) for k, v in fields.items()})
 
 
+def _parse_workspace(rd: _Reader, data: Mapping[str, Any]) -> WorkspaceSpec:
+    if "workspace" not in data:
+        return WorkspaceSpec()
+    table = rd.table(data, "workspace", "")
+    rd.no_unknown_keys(table, _WORKSPACE_KEYS, "workspace.")
+    margin = rd.number(table, "desk_margin_m", "workspace.", DEFAULT_DESK_MARGIN_M)
+    _check_range(rd.where, "workspace.desk_margin_m", margin, 0.0, MAX_DESK_MARGIN_M)
+    raw = table.get("keep_out", [])
+    if not isinstance(raw, list):
+        raise rd.fail(f"workspace.keep_out must be an array of tables ([[workspace.keep_out]]), got {_type_name(raw)}")
+    boxes = []
+    for i, box in enumerate(raw):
+        path = f"workspace.keep_out[{i}]."
+        if not isinstance(box, dict):
+            raise rd.fail(f"workspace.keep_out[{i}] must be a table ([[workspace.keep_out]]), got {_type_name(box)}")
+        rd.no_unknown_keys(box, _KEEP_OUT_KEYS, path)
+        name = rd.string(box, "name", path)
+        lo, hi = rd.vector3(box, "min", path), rd.vector3(box, "max", path)
+        _check_box(rd.where, path, name, lo, hi)
+        if any(b.name == name for b in boxes):
+            raise rd.fail(f"{path}name = {name!r} is used twice; keep-out box names must be unique")
+        boxes.append(KeepOutBox(name=name, min_m=lo, max_m=hi))
+    return WorkspaceSpec(desk_margin_m=float(margin), keep_out=tuple(boxes))
+
+
+def _parse_tool_marker(rd: _Reader, data: Mapping[str, Any]) -> Optional[ToolMarkerSpec]:
+    if "tool_marker" not in data:
+        return None
+    table = rd.table(data, "tool_marker", "")
+    rd.no_unknown_keys(table, _TOOL_MARKER_KEYS, "tool_marker.")
+    if "id" not in table:
+        raise rd.fail("missing key tool_marker.id (an integer 0…999)")
+    marker_id = table["id"]
+    offset = rd.vector3(table, "offset_m", "tool_marker.")
+    size = rd.number(table, "size_m", "tool_marker.")
+    _check_tool_marker(rd.where, "tool_marker.", marker_id, offset, size)
+    return ToolMarkerSpec(marker_id=int(marker_id), offset_m=offset, size_m=float(size))
+
+
 def parse_profile(
     data: Mapping[str, Any],
     source: str = "<profile>",
@@ -841,9 +975,11 @@ def parse_profile(
         if problem:
             raise rd.fail(problem)
     gripper = _parse_gripper(rd, data)
+    workspace = _parse_workspace(rd, data)
+    tool_marker = _parse_tool_marker(rd, data)
     return RobotProfile(
         name=name, kind=kind, description=description, geometry=geometry, joints=joints,
-        source=source, gripper=gripper,
+        source=source, gripper=gripper, workspace=workspace, tool_marker=tool_marker,
     )
 
 

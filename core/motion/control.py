@@ -6,6 +6,14 @@ PWM frame). A lost marker holds the last command; an unreachable goal sends the 
 nearest reachable point and says by how much the goal is out of reach. A goal with a NaN or
 infinite value is treated as invalid: the last command is held and ``ArmController.note`` says
 why (the Targeter refuses such targets already; this is the last gate before the solvers).
+
+Workspace (the profile's desk margin and keep-out boxes, ``core.motion.safety``): a goal below
+the desk margin is aimed at the margin instead (the command is then not "reachable" and
+``note`` says "below the desk: goal at z = …"), and after the joint clamps and the step limit
+the pose is checked as a whole — every moving point of the arm above the margin, no segment in a
+keep-out box. A step that would break that stops at the farthest safe fraction of the step
+(``limit_to_workspace``) and ``note`` gives the reason, e.g. "below the desk: elbow at z = -12 mm".
+Whatever the solver and the goal source, no commanded pose leaves the workspace from a safe start.
 """
 from __future__ import annotations
 
@@ -14,9 +22,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from core.kinematics.base import pose_matrix, rpy_to_matrix
+from core.kinematics.base import distance_m, format_distance, pose_matrix, rpy_to_matrix
+from core.kinematics.profile import WorkspaceSpec
 from core.messages import Goal, JointCommand, SequenceCounter, as_point
-from core.motion.safety import clamp_to_limits, limit_step
+from core.motion.safety import clamp_to_limits, limit_step, limit_to_workspace
 
 CONTROL_RATE_HZ = 50.0
 
@@ -62,7 +71,10 @@ class ArmController:
         self.last_ik = None
         self.armed = True  # False after an e-stop: refuse new commands until re-armed
         self.paused_by: frozenset[str] = frozenset()  # why the arm holds still (e.g. "a dialog is open")
-        self.note = ""  # why the last step held instead of solving ("" when it solved)
+        self.note = ""  # why the last step held or stopped short ("" when it solved and moved freely)
+        # desk margin and keep-out boxes enforced on every step; the profile's unless set (settings)
+        self.workspace: WorkspaceSpec = getattr(profile, "workspace", None) or WorkspaceSpec()
+        self.workspace_note = ""  # the workspace's reason alone, "" when the last step was clear
         self._seq = SequenceCounter()
 
     def step(self, goal: Optional[Goal], q_now: Sequence[float], t: float) -> Optional[JointCommand]:
@@ -86,19 +98,38 @@ class ArmController:
             self.note = problem
             return self._hold(goal, t)
         self.note = ""
+        self.workspace_note = ""
         q_ref = self.last.q if self.last is not None else tuple(q_now)
+        target = tuple(float(v) for v in goal.base_p_target)
+        margin = self.workspace.desk_margin_m
+        raised = ""
+        if target[2] < margin:  # never aim below the desk: aim at the margin above that point
+            raised = (f"below the desk: goal at z = {target[2] * 1e3:.0f} mm — aiming"
+                      f" {format_distance(margin)} above the desk")
+            target = (target[0], target[1], margin)
         if goal.orientation_rpy is not None and hasattr(self.kinematics, "ik_pose"):
-            ik = self.kinematics.ik_pose(goal_pose_matrix(goal.base_p_target, goal.orientation_rpy), q_ref)
+            ik = self.kinematics.ik_pose(goal_pose_matrix(target, goal.orientation_rpy), q_ref)
         else:
-            ik = self.kinematics.ik(goal.base_p_target, q_ref)
+            ik = self.kinematics.ik(target, q_ref)
         self.last_ik = ik
         q_safe, changed = clamp_to_limits(ik.q, self.profile)
         q_limited = limit_step(q_ref, q_safe, self.step_allowance(t))
         q_final, changed_again = clamp_to_limits(q_limited, self.profile)
+        # the step starts where limit_step started it: a joint with no usable history starts
+        # where it is commanded to go (so the check below looks at the commanded pose alone)
+        q_from, _ = clamp_to_limits(tuple(a if math.isfinite(float(a)) else b
+                                          for a, b in zip(q_ref, q_final)), self.profile)
+        q_cmd, why = limit_to_workspace(q_from, q_final, self.profile, self.kinematics, self.workspace)
+        self.workspace_note = "; ".join(r for r in (why, raised) if r)
+        self.note = self.workspace_note
+        reach_error = float(ik.error_m)
+        if raised:
+            reach_error = distance_m(goal.base_p_target, ik.base_p_reached)
         cmd = JointCommand(
-            seq=self._seq.next(), t=t, q=tuple(q_final), source_t=goal.source_t,
-            reachable=bool(ik.reachable), reach_error_m=float(ik.error_m),
-            base_p_target=as_point(ik.base_p_reached), clamped=bool(changed or changed_again),
+            seq=self._seq.next(), t=t, q=tuple(q_cmd), source_t=goal.source_t,
+            reachable=bool(ik.reachable) and not raised, reach_error_m=reach_error,
+            base_p_target=as_point(ik.base_p_reached),
+            clamped=bool(changed or changed_again or why),
         )
         self.last = cmd
         return cmd

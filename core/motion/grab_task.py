@@ -27,7 +27,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from core.kinematics.base import format_distance
-from core.motion.safety import require_finite, require_finite_number
+from core.motion.safety import limit_to_workspace, require_finite, require_finite_number
 from core.motion.trajectory import PointToPoint, joint_move
 
 
@@ -127,6 +127,7 @@ class GrabTask:
         self.message = ""
         self.history: list[tuple[float, GrabPhase]] = []  # (time entered, phase)
         self._q_cmd = self.q_start
+        self.workspace_note = ""  # why the last step stopped short (below the desk, a keep-out box)
         self._index = 0
         self._move: Optional[PointToPoint] = None
         self._grip_from = self.gripper_cmd
@@ -210,7 +211,8 @@ class GrabTask:
         move = self._move
         elapsed = t - self._t_phase
         sp = move.sample(elapsed)
-        self._q_cmd = sp.q
+        # the desk and the keep-out boxes hold here too: the task streams joints itself
+        self._q_cmd, self.workspace_note = limit_to_workspace(self._q_cmd, sp.q, self.profile, self.kin)
         frac = 1.0 if self._grip_time <= 0 else min(1.0, max(0.0, elapsed / self._grip_time))
         self.gripper_cmd = self._grip_from + (wp.gripper_m - self._grip_from) * frac
         planned = max(move.duration, self._grip_time)

@@ -291,7 +291,53 @@ class SimStereoCamera(ClockPacedSource):
         return self.rig.calibration()
 
     def base_T_camera(self) -> np.ndarray:
+        """The rig's NOMINAL mount: what a program knows without a hand-eye calibration."""
+        return self.rig.nominal_base_T_camera
+
+    def true_base_T_camera(self) -> np.ndarray:
+        """Where camera_left really is (the renders' mount, offset included): the truth to score against."""
         return self.rig.base_T_camera
+
+    @property
+    def hand_eye_pair_id(self) -> str:
+        """The camera pair a hand-eye file must name: a rig mounted elsewhere is another pair."""
+        off = self.rig.config.mount_offset
+        if not any(off):
+            return "sim"
+        return "sim rig-offset " + ",".join(f"{v:.6g}" for v in (*off[:3], *np.degrees(off[3:])))
+
+    def set_rig_offset(self, offset) -> None:
+        """Mount the rig ``offset`` (dx, dy, dz m, roll, pitch, yaw rad) off its nominal pose; the
+        desk is rebuilt for the moved cameras (its scenario, seed and settings are kept)."""
+        from dataclasses import replace as _replace
+
+        from core.sim.rig import check_rig_offset
+
+        rig = SimRig(_replace(self.rig.config, mount_offset=check_rig_offset(offset)))
+        old = self.desk
+        desk = SimDesk(rig, scenario=old.scenario, marker_ids=old.marker_ids, marker_size_m=old.marker_size_m,
+                       seed=old.seed, blur_sigma_px=old.blur_sigma_px, noise_sigma=old.noise_sigma)
+        desk.set_camera_settings(old.settings)
+        if old.tool_marker is not None:
+            desk.set_tool_marker(_ToolPlate(*old.tool_marker))
+        with self._lock:
+            self.rig, self.desk = rig, desk
+            self._last_key = self._last_render = None
+            self._desk_key = self._desk_render = None
+            self._overlays = None
+
+    def set_tool_marker(self, marker) -> None:
+        """Put a marker plate on the simulated arm's tool (see ``SimDesk.set_tool_marker``)."""
+        with self._lock:
+            self.desk.set_tool_marker(marker)
+            self._last_key = self._last_render = None
+
+
+@dataclass(frozen=True)
+class _ToolPlate:
+    marker_id: int
+    offset_m: tuple
+    size_m: float
 
 
 # Cameras whose sensor thread runs. A daemon thread still inside OpenCV while the interpreter

@@ -318,7 +318,7 @@ class SimDesk:
 
     def __init__(self, rig: SimRig, scenario: str = "static", marker_ids: Sequence[int] = (23, 50),
                  marker_size_m: float = 0.04, seed: int = 0, blur_sigma_px: float = 0.6,
-                 noise_sigma: float = 2.0):
+                 noise_sigma: float = 2.0, tool_marker=None):
         ids = tuple(int(i) for i in marker_ids)
         if len(set(ids)) != len(ids) or any(not 0 <= i < 250 for i in ids):
             raise ValueError(f"marker_ids = {ids}: need distinct DICT_6X6_250 ids in 0…249")
@@ -350,12 +350,38 @@ class SimDesk:
         for i in ids:
             self._textures[(i, False)] = marker_texture(self._dictionary, i)
             self._textures[(i, True)] = marker_texture(self._dictionary, i, label_r / (self._paper_m / 2))
+        self.tool_marker = None  # (marker_id, offset_m, size_m) of the plate the arm carries
+        self.set_tool_marker(tool_marker)
         self._settings = CameraSettings()
         self._lut: Optional[np.ndarray] = None
         self._noise: Optional[tuple] = None  # ((h, w, σ), noise field) of _noise_field
         self.set_scenario(scenario)
 
     # -- configuration ----------------------------------------------------------------------
+
+    def set_tool_marker(self, marker) -> None:
+        """The marker plate the arm carries (any object with ``marker_id``, ``offset_m`` — from the
+        tool point, robot_base axes — and ``size_m``), or None for a bare tool. The plate lies
+        horizontal, printed side up, its top edge facing away from the base."""
+        if marker is None:
+            self.tool_marker = None
+            return
+        marker_id, size = int(marker.marker_id), float(marker.size_m)
+        offset = tuple(float(v) for v in marker.offset_m)
+        if marker_id in self.marker_ids or not 0 <= marker_id < 250:
+            raise ValueError(f"tool marker id {marker_id} must be a DICT_6X6_250 id (0…249) not used by the "
+                             f"desk's markers {self.marker_ids}")
+        if not 0.01 <= size <= 0.2 or len(offset) != 3 or not all(map(math.isfinite, offset)):
+            raise ValueError(f"tool marker size {size} m / offset {offset}: need 0.01…0.2 m and 3 finite numbers")
+        self._textures[(marker_id, False)] = marker_texture(self._dictionary, marker_id)
+        self.tool_marker = (marker_id, offset, size)
+
+    def tool_marker_centre(self, arm_points) -> Optional[np.ndarray]:
+        """Centre of the tool's marker plate (robot_base) for chain points ``arm_points``, or None."""
+        arm = self._check_arm(arm_points)
+        if arm is None or self.tool_marker is None:
+            return None
+        return arm[-1] + np.asarray(self.tool_marker[1])
 
     def set_scenario(self, name: str) -> None:
         """Switch to scenario ``name`` (one of ``scenario_names()``); time restarts at its t."""
@@ -445,6 +471,27 @@ class SimDesk:
         black_px, _ = view.project(self._square(pose, self.marker_size_m / 2))
         region_px, _ = view.project(self._square(pose, self.marker_size_m / 2 * (1 + 1 / 8)))
         return (obj.marker_id, H, paper_px, disc), black_px, region_px
+
+    def _tool_plate_item(self, view: _View, arm: np.ndarray) -> Optional[_Item]:
+        """The marker plate on the tool: a horizontal marker at tool point + offset."""
+        marker_id, offset, size = self.tool_marker
+        centre = arm[-1] + np.asarray(offset)
+        yaw = math.atan2(arm[-1, 1] - arm[0, 1], arm[-1, 0] - arm[0, 0]) - math.pi / 2
+        pose = (float(centre[0]), float(centre[1]), float(centre[2]), yaw)
+        _, depth = view.project(centre[None])
+        if depth[0] < NEAR_M * 2:
+            return None
+        paper = size * (8 + 2 * MARKER_BORDER_CELLS) / 8
+        tex = self._textures[(marker_id, False)]
+        n = tex.shape[0]
+        s = paper / n
+        A = np.array([[s, 0.0, 0.5 * s - paper / 2], [0.0, -s, paper / 2 - 0.5 * s], [0.0, 0.0, 1.0]])
+        c, sn = math.cos(yaw), math.sin(yaw)
+        R = np.array([[c, -sn, pose[0]], [sn, c, pose[1]], [0.0, 0.0, 1.0]])
+        H = view.plane_homography(pose[2]) @ R @ A
+        paper_px, _ = view.project(self._square(pose, paper / 2))
+        # painted just in front of the tool's own disc
+        return _Item(depth=float(depth[0]) - 2e-3, marker=(marker_id, H, paper_px, False))
 
     def _card_item(self, view: _View, card: Card) -> _Item:
         marker, black, region = self._marker_parts(view, card, disc=False)
@@ -628,6 +675,10 @@ class SimDesk:
             f, s = self._arm_items(view, arm)
             flat += f
             solid += s
+            if self.tool_marker is not None:
+                plate = self._tool_plate_item(view, arm)
+                if plate is not None:
+                    solid.append(plate)
         flat += [self._card_item(view, c) for c in st.cards]
         solid += [self._cup_item(view, c) for c in st.cups]
         if st.ball is not None:
@@ -815,7 +866,7 @@ class SimDesk:
         """Everything a render at ``t`` depends on but the sensor noise: equal keys give the
         same picture (the scene state, the arm's points, the camera settings)."""
         arm = self._check_arm(arm_points)
-        return (self.scene(float(t)), None if arm is None else arm.tobytes(), self._settings)
+        return (self.scene(float(t)), None if arm is None else arm.tobytes(), self._settings, self.tool_marker)
 
     def render(self, t: float, arm_points: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray, GroundTruth]:
         """Left and right BGR uint8 images at scenario time t (s), and the ground truth.

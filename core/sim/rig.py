@@ -51,6 +51,10 @@ class SimRigConfig:
     look_at: tuple[float, float, float] = (0.0, 0.10, 0.0)  # point both cameras aim at (m)
     right_hint: tuple[float, float, float] = (-1.0, 0.0, 0.0)  # image x axis, roughly (robot_base)
     right_rotation_rad: tuple[float, float, float] = (0.004, -0.012, 0.006)  # right vs left, small
+    # where the rig really is against where it was meant to be (a bumped or hand-mounted rig):
+    # dx, dy, dz (m, robot_base) and roll, pitch, yaw (rad, about robot_base x, y, z through the
+    # rig's midpoint). Renders use the true (offset) mount; ``nominal_base_T_camera`` ignores it.
+    mount_offset: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not (64 <= self.width <= 4096 and 48 <= self.height <= 4096):
@@ -59,6 +63,35 @@ class SimRigConfig:
             raise ValueError(f"sim rig focal_px = {self.focal_px} is outside 50…5000")
         if not (0.01 <= self.baseline_m <= 0.5):
             raise ValueError(f"sim rig baseline_m = {self.baseline_m} is outside 0.01…0.5")
+        check_rig_offset(self.mount_offset)
+
+
+MAX_OFFSET_M = 0.2
+MAX_OFFSET_RAD = np.radians(30.0)
+
+
+def check_rig_offset(offset) -> tuple[float, ...]:
+    """``offset`` (dx, dy, dz m, roll, pitch, yaw rad) as floats, or ValueError naming the limits."""
+    try:
+        values = tuple(float(v) for v in offset)
+    except (TypeError, ValueError):
+        raise ValueError(f"rig offset {offset!r} is not 6 numbers (DX,DY,DZ in m, ROLL,PITCH,YAW)") from None
+    if len(values) != 6 or not all(np.isfinite(values)):
+        raise ValueError(f"rig offset {offset!r} must be 6 finite numbers (DX,DY,DZ in m, ROLL,PITCH,YAW)")
+    if any(abs(v) > MAX_OFFSET_M for v in values[:3]) or any(abs(v) > MAX_OFFSET_RAD + 1e-12 for v in values[3:]):
+        raise ValueError(f"rig offset {offset!r} is outside |d| ≤ {MAX_OFFSET_M} m and angles ≤ 30°")
+    return values
+
+
+def offset_transform(offset, pivot) -> np.ndarray:
+    """4x4 transform (robot_base) that moves a rig by ``offset`` (rotation about ``pivot``)."""
+    dx, dy, dz, rx, ry, rz = check_rig_offset(offset)
+    R = rot_xyz(rx, ry, rz)
+    pivot = np.asarray(pivot, float)
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = pivot - R @ pivot + np.array([dx, dy, dz])
+    return T
 
 
 class SimRig:
@@ -78,11 +111,25 @@ class SimRig:
         self.base_T_right = mid_T_camera.copy()
         self.base_T_right[:3, :3] = mid_T_camera[:3, :3] @ rot_xyz(*c.right_rotation_rad).T
         self.base_T_right[:3, 3] = np.asarray(c.position) + x_axis * c.baseline_m / 2
+        self.nominal_base_T_left = self.base_T_left.copy()
+        if any(c.mount_offset):
+            moved = offset_transform(c.mount_offset, c.position)
+            self.base_T_left = moved @ self.base_T_left
+            self.base_T_right = moved @ self.base_T_right
 
     @property
     def base_T_camera(self) -> np.ndarray:
-        """Pose of camera_left in robot_base (the transform perception needs)."""
+        """True pose of camera_left in robot_base (where the renders come from)."""
         return self.base_T_left.copy()
+
+    @property
+    def nominal_base_T_camera(self) -> np.ndarray:
+        """Where camera_left was meant to be mounted (without ``mount_offset``)."""
+        return self.nominal_base_T_left.copy()
+
+    @property
+    def is_offset(self) -> bool:
+        return any(self.config.mount_offset)
 
     def camera_T_base(self, side: str) -> np.ndarray:
         """Inverse pose for ``side`` in {"left", "right"}."""

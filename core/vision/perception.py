@@ -8,6 +8,7 @@ without the interpolation, and costs microseconds instead of a millisecond.
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, replace
 from typing import Iterable, Optional, Sequence
@@ -18,27 +19,67 @@ import numpy as np
 from core.messages import MarkerObservation, PerceptionResult, StereoFrame, as_point
 from core.vision.calibration import StereoCalibration
 
-ARUCO_DICTIONARIES = {
-    "DICT_4X4_50": cv2.aruco.DICT_4X4_50,
-    "DICT_5X5_100": cv2.aruco.DICT_5X5_100,
-    "DICT_6X6_250": cv2.aruco.DICT_6X6_250,
-    "DICT_7X7_250": cv2.aruco.DICT_7X7_250,
-    "DICT_ARUCO_ORIGINAL": cv2.aruco.DICT_ARUCO_ORIGINAL,
-}
+def _predefined_dictionaries() -> tuple[dict[str, int], dict[str, str]]:
+    """Every predefined ``cv2.aruco.DICT_*`` dictionary, in OpenCV's order, and the aliases.
+
+    OpenCV spells the AprilTag and MIP families twice (``DICT_APRILTAG_36h11`` and
+    ``DICT_APRILTAG_36H11``, one value): the lower-case "h" (the families' own spelling) is the
+    name, the other one an alias.
+    """
+    by_value: dict[int, list[str]] = {}
+    for attr in dir(cv2.aruco):
+        if attr.startswith("DICT_") and isinstance(getattr(cv2.aruco, attr), int):
+            by_value.setdefault(getattr(cv2.aruco, attr), []).append(attr)
+    names: dict[str, int] = {}
+    aliases: dict[str, str] = {}
+    for value in sorted(by_value):
+        spellings = sorted(by_value[value], key=lambda n: (n.upper() == n, n))  # "36h11" before "36H11"
+        names[spellings[0]] = value
+        for other in spellings[1:]:
+            aliases[other] = spellings[0]
+    return names, aliases
 
 
-def make_detector(dictionary: str = "DICT_6X6_250", fast: bool = False) -> cv2.aruco.ArucoDetector:
+# name -> cv2.aruco constant: ArUco DICT_4X4_50 … DICT_7X7_1000, DICT_ARUCO_ORIGINAL,
+# AprilTag DICT_APRILTAG_16h5/25h9/36h10/36h11 and DICT_ARUCO_MIP_36h12
+ARUCO_DICTIONARIES, ARUCO_DICTIONARY_ALIASES = _predefined_dictionaries()
+DEFAULT_DICTIONARY = "DICT_6X6_250"  # the simulated desk's markers (it renders no other)
+
+
+def dictionary_name(name: str) -> str:
+    """The canonical name of a predefined dictionary (``"DICT_APRILTAG_36H11"`` -> ``"…36h11"``).
+
+    Raises ValueError listing the valid names.
+    """
+    if name in ARUCO_DICTIONARIES:
+        return name
+    if name in ARUCO_DICTIONARY_ALIASES:
+        return ARUCO_DICTIONARY_ALIASES[name]
+    raise ValueError(f"unknown ArUco dictionary {name!r}; valid: {', '.join(ARUCO_DICTIONARIES)}")
+
+
+@functools.lru_cache(maxsize=None)
+def predefined_dictionary(name: str) -> "cv2.aruco.Dictionary":
+    """The OpenCV dictionary called ``name`` (a name or alias; ValueError when unknown)."""
+    return cv2.aruco.getPredefinedDictionary(ARUCO_DICTIONARIES[dictionary_name(name)])
+
+
+def dictionary_size(name: str) -> int:
+    """How many markers the dictionary has: valid ids are 0 … size - 1."""
+    return int(predefined_dictionary(name).bytesList.shape[0])
+
+
+def make_detector(dictionary: str = DEFAULT_DICTIONARY, fast: bool = False) -> cv2.aruco.ArucoDetector:
     """An ArUco detector with contour corner refinement (best stereo depth, see TECH_NOTES).
+
+    ``dictionary`` is any name of ``ARUCO_DICTIONARIES`` (or an alias), AprilTag families too.
 
     ``fast`` uses one adaptive-threshold window (15 px) and a higher threshold constant: on a
     textured desk that cuts the candidate contours ~5x (0.9 ms instead of 4.5 ms per 640x480
     image here) and, with 4 triangulated corners, halves the 3D error. The default parameters
     (windows 3…23 px) are kept for re-acquiring a lost marker in hard light.
     """
-    if dictionary not in ARUCO_DICTIONARIES:
-        raise ValueError(
-            f"unknown ArUco dictionary {dictionary!r}; valid: {', '.join(ARUCO_DICTIONARIES)}"
-        )
+    name = dictionary_name(dictionary)  # ValueError listing the valid names
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_CONTOUR
     if fast:
@@ -46,7 +87,7 @@ def make_detector(dictionary: str = "DICT_6X6_250", fast: bool = False) -> cv2.a
         params.adaptiveThreshWinSizeMax = 15
         params.adaptiveThreshConstant = 15
     return cv2.aruco.ArucoDetector(
-        cv2.aruco.getPredefinedDictionary(ARUCO_DICTIONARIES[dictionary]),
+        cv2.aruco.getPredefinedDictionary(ARUCO_DICTIONARIES[name]),
         params,
         cv2.aruco.RefineParameters(),
     )
@@ -100,7 +141,7 @@ class StereoMarkerPerception:
         calib: StereoCalibration,
         base_T_camera: np.ndarray,
         marker_ids: Sequence[int] = (23, 50),
-        dictionary: str = "DICT_6X6_250",
+        dictionary: str = DEFAULT_DICTIONARY,
         full_search_every: int = 15,
         search_margin: float = 0.8,
     ):
@@ -108,6 +149,7 @@ class StereoMarkerPerception:
         self.base_T_camera = np.asarray(base_T_camera, dtype=np.float64)
         self.camera_T_rect = calib.R1.T  # rectified-left -> camera_left rotation
         self.marker_ids = tuple(int(i) for i in marker_ids)
+        self.dictionary = dictionary_name(dictionary)  # canonical name, for a rebuilt perception
         self.detector = make_detector(dictionary, fast=True)
         self.robust_detector = make_detector(dictionary)
         self.robust_every = 10  # frames between robust full searches while a marker is missing

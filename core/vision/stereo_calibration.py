@@ -50,7 +50,7 @@ class ChessboardSpec:
     """A printed chessboard, counted by its inner corners (OpenCV's patternSize)."""
 
     cols: int  # inner corners along a row (board x), 3 … 40
-    rows: int  # inner corners along a column (board y), 3 … 40, different from cols
+    rows: int  # inner corners along a column (board y), 3 … 40 (= cols: a square pattern, settled in pairs)
     square_m: float  # side of one square (m), 0.002 … 0.5
 
     kind: ClassVar[str] = "chessboard"
@@ -60,11 +60,6 @@ class ChessboardSpec:
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and 3 <= v <= 40):
                 raise BoardError(f"chessboard {name} = {v!r}: need 3 … 40 inner corners")
-        if self.cols == self.rows:
-            raise BoardError(
-                f"chessboard {self.cols}x{self.rows}: a square pattern is ambiguous (the detector cannot "
-                f"tell a quarter turn) — use a board with different counts, e.g. 9x6 inner corners"
-            )
         if not (0.002 <= self.square_m <= 0.5):
             raise BoardError(f"square size {self.square_m!r} m is outside 0.002 … 0.5 m (give metres: 25 mm = 0.025)")
 
@@ -76,6 +71,12 @@ class ChessboardSpec:
     def grid(self) -> tuple[int, int]:
         """(columns, rows) of the inner-corner grid."""
         return self.cols, self.rows
+
+    @property
+    def colour_oriented(self) -> bool:
+        """The squares' colours settle a half turn: the outer corner squares at the first and the
+        last inner corner differ in colour (cols + rows odd, e.g. 9x6), and the board is not square."""
+        return self.cols != self.rows and (self.cols + self.rows) % 2 == 1
 
     def object_points(self) -> np.ndarray:
         """Board-frame corners (N,3) float32 in detection order: x fastest, origin at corner 0."""
@@ -379,7 +380,7 @@ def _detect_chessboard(grey: np.ndarray, board: ChessboardSpec, options: DetectO
         if not ok:
             return BoardDetection(False, reason="board not found", image_size=(w, h), method="classic")
         c = (c.reshape(-1, 2) + 0.5) / scale - 0.5
-        return _chessboard_result(c.astype(np.float32), board, (w, h), "classic")
+        return _chessboard_result(c.astype(np.float32), board, (w, h), "classic", grey)
     # small images are upscaled (the detector needs a few px of white around each black square);
     # images up to 800 px get a second, larger scale for far boards
     up = 1 if w >= options.min_detect_width else min(4, math.ceil(options.min_detect_width / w))
@@ -428,14 +429,65 @@ def _detect_chessboard(grey: np.ndarray, board: ChessboardSpec, options: DetectO
     c = c.reshape(-1, 2)
     if up != 1:
         c = (c + 0.5) / up - 0.5  # pixel centres: upscaled u' = up·(u + 0.5) − 0.5
-    return _chessboard_result(c.astype(np.float32), board, (w, h), method)
+    return _chessboard_result(c.astype(np.float32), board, (w, h), method, grey)
 
 
-def _chessboard_result(c: np.ndarray, board: ChessboardSpec, size, method) -> BoardDetection:
-    # a chessboard's corner order is only defined up to a half turn: start at the corner nearer
-    # the image's top-left so both views (and successive frames) agree
-    if c[0].sum() > c[-1].sum():
-        c = c[::-1].copy()
+def grid_symmetries(cols: int, rows: int) -> list[tuple[str, np.ndarray]]:
+    """The re-orderings of a cols x rows corner grid that leave its shape unchanged, as index
+    arrays (``new = corners[perm]``): identity, half turn and the two mirrors, plus the quarter
+    turns and diagonal mirrors when the grid is square. On the board plane each is a rigid motion,
+    so every one of them is a valid view of the board: only a second view can tell them apart."""
+    r, c = np.divmod(np.arange(cols * rows), cols)
+    out = [("identity", r * cols + c), ("half turn", (rows - 1 - r) * cols + (cols - 1 - c)),
+           ("mirror columns", r * cols + (cols - 1 - c)), ("mirror rows", (rows - 1 - r) * cols + c)]
+    if cols == rows:
+        n = cols
+        out += [("quarter turn", (n - 1 - c) * n + r), ("three quarter turn", c * n + (n - 1 - r)),
+                ("transpose", c * n + r), ("anti-transpose", (n - 1 - c) * n + (n - 1 - r))]
+    return [(name, np.asarray(perm, np.int64)) for name, perm in out]
+
+
+def _outer_square_level(grey: np.ndarray, c: np.ndarray, cols: int, corner: int) -> Optional[float]:
+    """Mean grey level of the outer board square at the grid's first (0) or last (-1) corner."""
+    if corner == 0:
+        p, q = c[0], c[cols + 1]
+    else:
+        p, q = c[-1], c[-cols - 2]
+    centre = p + 0.5 * (p - q)  # half a diagonal beyond the corner, away from the grid
+    r = max(1, int(0.15 * np.linalg.norm(p - q)))
+    x, y = int(round(centre[0])), int(round(centre[1]))
+    h, w = grey.shape[:2]
+    if not (r <= x < w - r and r <= y < h - r):
+        return None
+    return float(grey[y - r:y + r + 1, x - r:x + r + 1].mean())
+
+
+def _canonical_order(c: np.ndarray, board: ChessboardSpec, grey: Optional[np.ndarray]) -> np.ndarray:
+    """One view's corners in a canonical order that keeps what the board itself says.
+
+    - colours settle the half turn (``colour_oriented`` boards, e.g. 9x6): corner 0 is the one at
+      the dark outer corner square, whatever the camera's roll — an upside-down camera keeps it;
+    - a square board (n x n): as ROS camera_calibration, the last corner lies right of and below
+      the first (a quarter-turn between the two views of a pair is settled by the calibration);
+    - otherwise (e.g. 7x5, whose colours repeat after a half turn): corner 0 nearer the image's
+      top-left; the calibration settles a half turn between the views.
+    """
+    if board.cols == board.rows:
+        n = board.cols
+        turns = [np.rot90(c.reshape(n, n, 2), k) for k in range(4)]
+        g = max(turns, key=lambda t: float((t[-1, -1] - t[0, 0]).sum()))
+        return np.ascontiguousarray(g.reshape(-1, 2), dtype=c.dtype)
+    if board.colour_oriented and grey is not None:
+        first = _outer_square_level(grey, c, board.cols, 0)
+        last = _outer_square_level(grey, c, board.cols, -1)
+        if first is not None and last is not None and abs(first - last) > 20:
+            return c if first < last else c[::-1].copy()
+    return c[::-1].copy() if c[0].sum() > c[-1].sum() else c
+
+
+def _chessboard_result(c: np.ndarray, board: ChessboardSpec, size, method,
+                       grey: Optional[np.ndarray] = None) -> BoardDetection:
+    c = _canonical_order(c, board, grey)
     return BoardDetection(True, c, np.arange(len(c), dtype=np.int32), method=method, image_size=size,
                           square_px=_square_px(c, board.cols))
 
@@ -515,11 +567,14 @@ def match_views(left: BoardDetection, right: BoardDetection, board: BoardSpec,
     obj = board.object_points()
     if isinstance(board, ChessboardSpec):
         lc, rc = left.corners, right.corners
-        # same corner first in both views? (a half-turn mismatch is the only ambiguity left)
-        same = np.linalg.norm(lc[0] - rc[0]) + np.linalg.norm(lc[-1] - rc[-1])
-        flip = np.linalg.norm(lc[0] - rc[-1]) + np.linalg.norm(lc[-1] - rc[0])
-        if flip < same:
-            rc = rc[::-1].copy()
+        if not board.colour_oriented:
+            # the pattern cannot tell a half (or, square, a quarter) turn: start from the turn that
+            # puts the outer corners of both views nearest each other; calibrate_stereo settles it
+            # over all pairs (an upside-down camera is not "nearest")
+            ends = np.array([0, board.cols - 1, board.n_corners - 1, board.n_corners - board.cols])
+            turns = [perm for name, perm in grid_symmetries(board.cols, board.rows) if "turn" in name or name == "identity"]
+            best = min(turns, key=lambda perm: float(np.linalg.norm(lc[ends] - rc[perm][ends], axis=1).sum()))
+            rc = rc[best].copy()
             right = BoardDetection(True, rc, right.ids, method=right.method, image_size=right.image_size,
                                    square_px=right.square_px)
         ids = left.ids
@@ -555,27 +610,60 @@ def draw_detection(image: np.ndarray, detection: BoardDetection, board: Optional
     return out
 
 
-def suggest_board(images: Sequence[np.ndarray], board: BoardSpec) -> Optional[str]:
+def _verified_size(board: ChessboardSpec, pairs: Sequence, greys: Sequence[np.ndarray]) -> bool:
+    """Does ``board`` (a guessed size) really fit the pictures? With pairs: it must be found in at
+    least 4 of them and give a calibration that passes every sanity check. Without pairs (one live
+    frame): the largest grid in view must be exactly this size (not a part of a bigger board)."""
+    if pairs:
+        dets = []
+        opts = DetectOptions(use_sb=False, diagnose=False)
+        for left, right in list(pairs)[:12]:
+            if isinstance(left, (str, os.PathLike)):
+                left, right = cv2.imread(str(left)), cv2.imread(str(right))
+            if left is None or right is None:
+                continue
+            dets.append(detect_pair(left, right, board, opts))
+        if sum(d.ok for d in dets) < 4:
+            return False
+        try:
+            return calibrate_stereo(dets, board=board).ok
+        except CalibrationFailed:
+            return False
+    for g in greys:
+        work = g if g.shape[1] >= 640 else cv2.resize(g, None, fx=2, fy=2, interpolation=cv2.INTER_CUBIC)
+        probe = _probe_partial(work)
+        if probe is not None and probe.grid is not None and sorted(probe.grid) == sorted(board.grid):
+            return True
+    return False
+
+
+def suggest_board(images: Sequence[np.ndarray], board: BoardSpec, pairs: Optional[Sequence] = None) -> Optional[str]:
     """When the board is never found: is it another size or kind? A hint for the user, or None.
 
-    Tries the chessboard counted by squares instead of inner corners (and the reverse), and looks
-    for ArUco markers (a ChArUco board described as a chessboard, or another dictionary).
+    Tries the chessboard counted by squares instead of inner corners (and the reverse, and one
+    count off), and looks for ArUco markers (a ChArUco board described as a chessboard, or another
+    dictionary). A size is only suggested when it is verified (``_verified_size``): with ``pairs``
+    (image arrays or paths, left and right) it must calibrate and pass the sanity checks.
     """
     greys = [_grey(im) for im in images[:3] if im is not None]
     if not greys:
         return None
     if isinstance(board, ChessboardSpec):
         for dc, dr, why in ((-1, -1, "counted squares instead of inner corners?"),
-                            (1, 1, "counted inner corners of a bigger board?")):
+                            (1, 1, "counted inner corners of a bigger board?"),
+                            (-1, 0, "miscounted a row?"), (0, -1, "miscounted a column?"),
+                            (1, 0, "miscounted a row?"), (0, 1, "miscounted a column?")):
             cols, rows = board.cols + dc, board.rows + dr
-            if cols < 3 or rows < 3 or cols == rows:
+            if cols < 3 or rows < 3:
                 continue
             for g in greys:
                 work = g if g.shape[1] >= 640 else cv2.resize(g, None, fx=2, fy=2, interpolation=cv2.INTER_CUBIC)
                 ok, _ = cv2.findChessboardCorners(work, (cols, rows), flags=_CLASSIC_FLAGS)
                 if ok:
-                    return (f"the images show a chessboard with {cols}x{rows} inner corners ({why}) — "
-                            f"use --board chessboard:{cols}x{rows}")
+                    if _verified_size(ChessboardSpec(cols, rows, board.square_m), pairs, greys):
+                        return (f"the images show a chessboard with {cols}x{rows} inner corners ({why}) — "
+                                f"use --board chessboard:{cols}x{rows}")
+                    break
     for name in ("DICT_4X4_50", "DICT_5X5_100", "DICT_6X6_250", "DICT_7X7_250", "DICT_ARUCO_ORIGINAL",
                  "DICT_APRILTAG_36h11"):
         det = cv2.aruco.ArucoDetector(_dictionary(name), cv2.aruco.DetectorParameters(), cv2.aruco.RefineParameters())
@@ -630,6 +718,10 @@ class CalibrationOptions:
     max_rejected_fraction: float = 0.3  # never reject more than this share of the detected pairs as outliers
     max_rounds: int = 3  # calibrate / reject / recalibrate rounds
     min_pairs: int = 4  # fewer usable pairs is an error
+    wide: bool = False  # wide-angle / fisheye lenses: allow a horizontal field of view up to 170° (else 20 … 120°)
+    max_rms_px: float = 1.0  # a stereo RMS or epipolar error above this is a failed check (px)
+    min_tilt_spread_deg: float = 15.0  # the board's facing direction must vary this much over the pairs (°)
+    max_fx_sigma: float = 0.03  # the focal length's relative 1-sigma uncertainty must stay below this
 
     def __post_init__(self) -> None:
         if self.distortion not in DISTORTION_MODELS:
@@ -642,6 +734,8 @@ class CalibrationOptions:
             raise ValueError(f"max_rejected_fraction = {self.max_rejected_fraction} is outside 0 … 0.9")
         if not (3 <= self.min_pairs <= 100):
             raise ValueError(f"min_pairs = {self.min_pairs} is outside 3 … 100")
+        if not (0.1 <= self.max_rms_px <= 50):
+            raise ValueError(f"max_rms_px = {self.max_rms_px} is outside 0.1 … 50 px")
 
 
 @dataclass(frozen=True)
@@ -673,6 +767,13 @@ class CalibrationReport:
     notes: tuple[str, ...] = ()
     duration_s: float = 0.0
     board: str = ""
+    problems: tuple[str, ...] = ()  # failed sanity checks, each naming the problem and the fix; install only if empty
+    checks: dict = field(default_factory=dict)  # the measured values the checks looked at (fov, distances, tilt …)
+
+    @property
+    def ok(self) -> bool:
+        """Every sanity check passed: the calibration may be installed (else only with --force)."""
+        return not self.problems
 
     @property
     def pairs_total(self) -> int:
@@ -716,6 +817,9 @@ class CalibrationReport:
             "distortion_model": self.distortion_model,
             "board": self.board,
             "rejected": [{"pair": p.name, "reason": p.reason} for p in self.rejected],
+            "ok": self.ok,
+            "problems": list(self.problems),
+            "checks": {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.checks.items()},
             "out": out,
         }
 
@@ -742,6 +846,7 @@ class CalibrationReport:
         for p in self.rejected:
             lines.append(f"  rejected {p.name}: {p.reason}")
         lines += [f"note: {n}" for n in self.notes]
+        lines += [f"problem: {p}" for p in self.problems]
         verdict = rms_verdict(self.rms_stereo, self.epipolar_error_px)
         if verdict:
             lines.append(verdict)
@@ -779,6 +884,186 @@ def epipolar_errors(calib_F: np.ndarray, M1, D1, M2, D2, left_pts, right_pts) ->
     dr = np.abs(np.sum(lines_r[:, :2] * pr, axis=1) + lines_r[:, 2])
     dl = np.abs(np.sum(lines_l[:, :2] * pl, axis=1) + lines_l[:, 2])
     return 0.5 * (dl + dr)
+
+
+ORIENT_TOLERANCE_DEG = 20.0  # a pair's right-view order fits the rig when its camera-to-camera rotation is this close
+# (a wrong order is off by 90° or 180°; webcam poses from a rough one-camera calibration by a few degrees)
+
+
+def _rotation_deg(R: np.ndarray) -> float:
+    return math.degrees(math.acos(max(-1.0, min(1.0, (float(np.trace(R)) - 1.0) / 2.0))))
+
+
+def _orient_pairs(detections: Sequence[PairDetection], active: list[int], board: ChessboardSpec,
+                  image_size: tuple[int, int]) -> tuple[list[PairDetection], dict[int, str], str]:
+    """Settle the chessboard's half / quarter turn between the two views of every pair.
+
+    Each view alone cannot tell which physical corner its first one is (a 7x5 board looks the same
+    after a half turn, a 7x7 after a quarter turn), but a rig is rigid: the rotation from the left
+    camera to the right one is the same in every pair. Calibrate each camera on its own (the corner
+    order does not matter there), then for every pair and every re-ordering of the right view's grid
+    compute that rotation, and keep the re-ordering that agrees with the most pairs (ties: keep the
+    order the board's colours gave, then the smaller rotation). An upside-down camera thus gets its
+    180° right instead of a garbage calibration. Returns (detections, {index: reason} for pairs that
+    fit no re-ordering, a note or "").
+    """
+    syms = grid_symmetries(board.cols, board.rows)
+    obj = board.object_points().astype(np.float64)
+    il = [detections[k].left_points.reshape(-1, 1, 2).astype(np.float32) for k in active]
+    ir = [detections[k].right_points.reshape(-1, 1, 2).astype(np.float32) for k in active]
+    objs = [obj.astype(np.float32)] * len(active)
+    flags = _MODEL_FLAGS["k1"]
+    try:
+        _, K1, D1, rv1, tv1 = cv2.calibrateCamera(objs, il, image_size, None, None, flags=flags)
+        _, K2, D2, _, _ = cv2.calibrateCamera(objs, ir, image_size, None, None, flags=flags)
+    except cv2.error:
+        return list(detections), {}, ""
+    rel: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for j, k in enumerate(active):
+        RL, _ = cv2.Rodrigues(rv1[j])
+        tl = np.asarray(tv1[j], np.float64).reshape(3)
+        cands = []
+        for _, perm in syms:
+            ok, rv, tv = cv2.solvePnP(obj, ir[j].reshape(-1, 2)[perm].astype(np.float64), K2, D2,
+                                      flags=cv2.SOLVEPNP_IPPE)
+            if not ok:
+                cands.append((np.full((3, 3), np.nan), np.full(3, np.nan)))
+                continue
+            RR, _ = cv2.Rodrigues(rv)
+            Rrel = RR @ RL.T
+            cands.append((Rrel, tv.reshape(3) - Rrel @ tl))
+        rel[k] = cands
+
+    def fits(Rh: np.ndarray, k: int) -> tuple[float, int]:
+        diffs = [_rotation_deg(Rc @ Rh.T) if np.all(np.isfinite(Rc)) else 999.0 for Rc, _ in rel[k]]
+        g = int(np.argmin(diffs))
+        return diffs[g], g
+
+    best = None
+    for k0 in active:
+        for g0, (Rh, _) in enumerate(rel[k0]):
+            if not np.all(np.isfinite(Rh)):
+                continue
+            got = [fits(Rh, k) for k in active]
+            inl = [g for d, g in got if d <= ORIENT_TOLERANCE_DEG]
+            score = (len(inl), sum(g == 0 for g in inl), -_rotation_deg(Rh))
+            if best is None or score > best[0]:
+                best = (score, Rh)
+    if best is None:
+        return list(detections), {}, ""
+    Rh = best[1]
+    out = list(detections)
+    odd: dict[int, str] = {}
+    turned: list[str] = []
+    for k in active:
+        d, g = fits(Rh, k)
+        if d > ORIENT_TOLERANCE_DEG:
+            odd[k] = (f"the two views of the board do not fit the other pairs' camera-to-camera rotation in any "
+                      f"orientation ({d:.0f}° off) — board moved between the shots, or corners misdetected")
+            continue
+        if g == 0:
+            continue
+        name, perm = syms[g]
+        det = detections[k]
+        rc = det.right_points[perm].copy()
+        right = BoardDetection(True, rc, det.right.ids, method=det.right.method, image_size=det.right.image_size,
+                               square_px=det.right.square_px)
+        out[k] = PairDetection(det.left, right, det.object_points, det.left_points, rc, det.ids, det.reasons)
+        turned.append(name)
+    note = ""
+    if turned:
+        note = (f"the right view's corner order was re-matched ({', '.join(sorted(set(turned)))}) in "
+                f"{len(turned)} pair(s) so both views agree on the board's corners")
+    return out, odd, note
+
+
+FOV_DEG = (20.0, 120.0)  # a plausible horizontal field of view for a desk webcam (°)
+FOV_WIDE_DEG = (20.0, 170.0)  # with --wide
+SAME_IMAGES_PX = 0.01  # left and right corners closer than this in every pair: the same camera twice
+MIN_BASELINE_SQUARES = 0.05  # a baseline below this many squares is no stereo rig (nor is one above MAX_BASELINE_M)
+MAX_BASELINE_M = 1.0
+MAX_CAMERA_ROTATION_DEG = 45.0  # more between the two cameras' axes is not a side-by-side rig
+
+
+def _sanity_problems(calib: StereoCalibration, rvecs, tvecs, fx_sigma: tuple[float, float],
+                     used: Sequence[PairDetection], board: Optional[BoardSpec],
+                     options: CalibrationOptions) -> tuple[list[str], dict]:
+    """Physical sanity checks of a finished calibration: each failed one is a sentence naming the
+    problem and the fix. Also returns the values looked at (for the report)."""
+    problems: list[str] = []
+    w, h = calib.image_size
+    lo, hi = FOV_WIDE_DEG if options.wide else FOV_DEG
+    checks: dict = {}
+    # 1. the same picture twice (the camera index given for both sides)
+    if used and all(np.abs(d.left_points - d.right_points).max() < SAME_IMAGES_PX for d in used):
+        problems.append("the left and right images are the same — check the camera indices (both sides read "
+                        "one camera) and capture again")
+        return problems, {"same_images": True}
+    # 2. focal length against a plausible field of view
+    for side, M in (("left", calib.M1), ("right", calib.M2)):
+        fx = float(M[0, 0])
+        fov = math.degrees(2 * math.atan(w / (2 * fx))) if fx > 0 else 180.0
+        checks[f"fov_{side}_deg"] = fov
+        if not (lo <= fov <= hi):
+            problems.append(
+                f"{side} focal length fx = {fx:.0f} px means a {fov:.0f}° horizontal field of view at {w} px width "
+                f"(plausible: {lo:.0f}–{hi:.0f}°{'' if options.wide else ', or use --wide for wide-angle lenses'}) — "
+                f"the poses do not pin the focal length down: tilt the board more (±30° about both axes), "
+                f"fill more of the image, and check the board size")
+    # 3. the board's distances (a wrong focal length or square size puts it centimetres away)
+    dist = np.array([float(np.linalg.norm(np.asarray(t).reshape(3))) for t in tvecs])
+    if board is not None and len(dist):
+        cols, rows = board.grid
+        extent = board.square_m * math.hypot(cols - 1, rows - 1)
+        checks["board_distance_m"] = [round(float(v), 4) for v in (dist.min(), np.median(dist), dist.max())]
+        if dist.min() < max(0.02, 0.5 * extent):
+            problems.append(
+                f"the board would be only {dist.min() * 100:.1f} cm from the left camera in some pairs (it is "
+                f"{extent * 100:.0f} cm across) — impossible for a board seen whole: the focal length is wrong "
+                f"(tilt the board more) or --square is not the printed square size")
+        elif dist.max() > 20.0:
+            problems.append(f"the board would be {dist.max():.0f} m away — check --square (metres) and the board size")
+    # 4. tilt variety: the same tilt in every pair leaves the focal length free
+    normals = np.array([cv2.Rodrigues(np.asarray(r, np.float64).reshape(3, 1))[0][:, 2] for r in rvecs])
+    if len(normals) >= 2:
+        cosines = np.clip(normals @ normals.T, -1.0, 1.0)
+        spread = float(np.degrees(np.arccos(np.abs(cosines))).max())
+        checks["tilt_spread_deg"] = spread
+        checks["fx_sigma_rel"] = max(fx_sigma)
+        if spread < options.min_tilt_spread_deg or max(fx_sigma) > options.max_fx_sigma:
+            problems.append(
+                f"the board is tilted alike in every pair (its facing direction varies by {spread:.0f}°, need "
+                f"{options.min_tilt_spread_deg:.0f}°; focal length uncertain by ±{max(fx_sigma) * 100:.1f} %) — "
+                f"tilt the board more, fx cannot be pinned down: add pairs tilted ±30° left/right and up/down")
+    # 5. the rig: baseline, which side the right camera is on, cameras facing the same way
+    R = np.asarray(calib.R, np.float64)
+    centre = -(R.T @ calib.T.reshape(3))  # the right camera's centre in camera_left (m)
+    baseline = float(np.linalg.norm(centre))
+    rot = _rotation_deg(R)
+    checks.update(baseline_m=baseline, camera_rotation_deg=rot, right_camera_x_m=float(centre[0]))
+    min_baseline = MIN_BASELINE_SQUARES * (board.square_m if board is not None else 0.025)
+    if baseline < min_baseline:
+        problems.append(f"baseline {baseline * 1e3:.2f} mm: the left and right images are the same (or from one "
+                        f"camera) — check the camera indices")
+    elif baseline > MAX_BASELINE_M:
+        problems.append(f"baseline {baseline:.2f} m is implausible for a desk rig — check --square and the board "
+                        f"size, and that the pairs were taken at the same time")
+    if rot > MAX_CAMERA_ROTATION_DEG:
+        roll = abs(math.degrees(math.atan2(R[1, 0], R[0, 0])))
+        what = ("the right camera is mounted upside down (turned 180° about its axis against the left one)"
+                if roll > 135 else f"the cameras' axes differ by {rot:.0f}°")
+        problems.append(f"{what} — mount both cameras the same way up, side by side and facing the same way, "
+                        f"then calibrate again (rectification cannot pair rows of such a rig)")
+    elif baseline >= min_baseline and centre[0] < 0 and abs(centre[0]) >= abs(centre[1]):
+        problems.append(f"the right camera is to the left of the left one ({abs(centre[0]) * 1e3:.0f} mm) — the "
+                        f"left and right images are swapped: run again with --swap (or swap the camera indices)")
+    # 6. errors
+    if calib.rms_stereo > options.max_rms_px or calib.epipolar_error_px > options.max_rms_px:
+        problems.append(
+            f"stereo RMS {calib.rms_stereo:.2f} px / epipolar error {calib.epipolar_error_px:.2f} px is above "
+            f"{options.max_rms_px:g} px — the pairs were not taken at the same time, the board moved or bent, or the "
+            f"board size is wrong: hold the board still, keep it flat, and check --board")
+    return problems, checks
 
 
 def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[tuple[int, int]] = None,
@@ -824,14 +1109,33 @@ def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[t
             ))
         return out
 
+    mixed = [(d.left.image_size, d.right.image_size) for d in detections
+             if d.left.image_size != d.right.image_size and (0, 0) not in (d.left.image_size, d.right.image_size)]
+    if mixed and len(mixed) * 2 > len(detections):
+        (lw, lh), (rw, rh) = mixed[0]
+        raise CalibrationFailed(
+            f"the left images are {lw}x{lh} but the right ones are {rw}x{rh} — both cameras must deliver the "
+            f"same image size: set the same resolution for both and capture again", results())
     if n_detected < options.min_pairs:
         why = "; ".join(sorted({r.split(": ", 1)[-1] for r in reasons.values()})[:3])
         raise CalibrationFailed(
             f"only {n_detected} of {len(detections)} pairs show the board in both views (need at least "
             f"{options.min_pairs})" + (f" — {why}" if why else "") + " — check the board size "
             "(inner corners for a chessboard) and capture more pairs", results())
-    max_reject = int(math.floor(options.max_rejected_fraction * n_detected))
     notes: list[str] = []
+    if isinstance(board, ChessboardSpec):
+        detections, odd, note = _orient_pairs(detections, active, board, image_size)
+        for k, why in odd.items():
+            reasons[k] = why
+        active = [k for k in active if k not in odd]
+        if note:
+            notes.append(note)
+        n_detected = len(active)
+        if n_detected < options.min_pairs:
+            raise CalibrationFailed(
+                f"only {n_detected} of {len(detections)} pairs show the board the same way in both views (need at "
+                f"least {options.min_pairs}) — mount both cameras the same way up and capture more pairs", results())
+    max_reject = int(math.floor(options.max_rejected_fraction * n_detected))
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-7)
     rounds = max(1, options.max_rounds)
     errors: dict[int, tuple[float, float, float]] = {}
@@ -845,10 +1149,13 @@ def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[t
         try:
             K1 = cv2.initCameraMatrix2D(obj, il, image_size)
             K2 = cv2.initCameraMatrix2D(obj, ir, image_size)
-            rms_l, K1, D1, _, _ = cv2.calibrateCamera(obj, il, image_size, K1, None,
-                                                      flags=flags | cv2.CALIB_USE_INTRINSIC_GUESS, criteria=criteria)
-            rms_r, K2, D2, _, _ = cv2.calibrateCamera(obj, ir, image_size, K2, None,
-                                                      flags=flags | cv2.CALIB_USE_INTRINSIC_GUESS, criteria=criteria)
+            rms_l, K1, D1, _, _, std_l, _, _ = cv2.calibrateCameraExtended(
+                obj, il, image_size, K1, None, flags=flags | cv2.CALIB_USE_INTRINSIC_GUESS, criteria=criteria)
+            rms_r, K2, D2, _, _, std_r, _, _ = cv2.calibrateCameraExtended(
+                obj, ir, image_size, K2, None, flags=flags | cv2.CALIB_USE_INTRINSIC_GUESS, criteria=criteria)
+            # how well each camera's own poses pin its focal length down (relative 1-sigma)
+            fx_sigma = (float(std_l.ravel()[0]) / max(1e-9, float(K1[0, 0])),
+                        float(std_r.ravel()[0]) / max(1e-9, float(K2[0, 0])))
             mono = (K1.copy(), D1.copy(), K2.copy(), D2.copy())
             solved = cv2.stereoCalibrateExtended(
                 obj, il, ir, K1, D1, K2, D2, image_size, None, None,
@@ -912,24 +1219,23 @@ def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[t
         sq_r += errors[k][2] ** 2 * n
         n_pts += n
     epipolar = float(np.concatenate(all_epi).mean())
-    tx, ty = float(T.reshape(3)[0]), float(T.reshape(3)[1])
-    if abs(ty) > abs(tx):
-        notes.append("the cameras sit one above the other (|T y| > |T x|): disparity assumes side by side")
-    elif tx > 0:
-        notes.append("the right images come from the camera on the left (T x > 0): the left and right "
-                     "images look swapped — swap them, or disparity will be negative")
+    centre = -(np.asarray(R).T @ np.asarray(T).reshape(3))  # the right camera's centre, in camera_left
+    if abs(centre[1]) > abs(centre[0]):
+        notes.append("the cameras sit one above the other: disparity assumes side by side")
     if options.distortion == "auto" and model != "k1k2p":
         notes.append(f"few pairs ({len(active)}): distortion limited to {_MODEL_TEXT[model]}")
     calib = StereoCalibration(
         M1=K1, D1=D1.reshape(1, -1), M2=K2, D2=D2.reshape(1, -1), R=R, T=np.asarray(T).reshape(3, 1),
         image_size=image_size, rms_stereo=float(rms), epipolar_error_px=epipolar,
     )
+    problems, checks = _sanity_problems(calib, rvecs, tvecs, fx_sigma, [detections[k] for k in active], board,
+                                        options)
     report(1.0, "done")
     return CalibrationReport(
         calibration=calib, rms_left=math.sqrt(sq_l / n_pts), rms_right=math.sqrt(sq_r / n_pts),
         rms_stereo=float(rms), epipolar_error_px=epipolar, pairs=tuple(results(errors, epi, final=True)),
         distortion_model=model, notes=tuple(notes), duration_s=time.perf_counter() - t_start,
-        board=board.text() if board is not None else "",
+        board=board.text() if board is not None else "", problems=tuple(problems), checks=checks,
     )
 
 

@@ -426,3 +426,76 @@ def test_place_labels_keeps_close_labels_apart():
         assert bounds[0] <= a[0] and a[2] <= bounds[2] and bounds[1] <= a[1] and a[3] <= bounds[3]
         for b in rects[i + 1:]:
             assert not overlap(a, b), (a, b)
+
+
+# ------------------------------------------------------------------------- workspace drawing
+def boxed_desk_rrr(solvers, margin=0.02):
+    """desk_rrr with two keep-out boxes: a mug in front right, a monitor straight ahead."""
+    from dataclasses import replace
+
+    from core.kinematics.profile import KeepOutBox, WorkspaceSpec
+
+    profile, kin = solvers["desk_rrr"]
+    boxes = (KeepOutBox("mug", (0.06, 0.06, 0.0), (0.12, 0.14, 0.09)),
+             KeepOutBox("monitor", (-0.05, 0.18, 0.0), (0.05, 0.22, 0.3)))
+    return replace(profile, workspace=WorkspaceSpec(margin, boxes)), kin
+
+
+def test_keep_out_boxes_are_drawn_in_the_top_view_and_cut_by_the_arm_plane_in_the_side_view(twin, solvers):
+    profile, kin = boxed_desk_rrr(solvers)
+    twin.configure_for(profile, kin)
+    top = twin.keep_out_outlines("top")
+    rows = [r for r in top if np.isfinite(r).all()]
+    assert close(rows[:5], [(6, 6), (12, 6), (12, 14), (6, 14), (6, 6)])  # the mug's footprint, cm
+    assert close(rows[5:], [(-5, 18), (5, 18), (5, 22), (-5, 22), (-5, 18)])
+    assert twin.desk_margin_line_cm() == pytest.approx(2.0)
+    twin.set_side_azimuth(math.pi / 2)  # straight ahead: the plane cuts the monitor only
+    side = twin.keep_out_outlines("side")
+    assert close(side, [(18, 0), (22, 0), (22, 30), (18, 30), (18, 0)])
+    a = math.atan2(0.1, 0.09)
+    twin.set_side_azimuth(a)  # through the mug (and not the monitor)
+    c, sn = math.cos(a), math.sin(a)
+    s0, s1 = 100 * max(0.06 / c, 0.06 / sn), 100 * min(0.12 / c, 0.14 / sn)  # where the plane enters, leaves
+    assert close(twin.keep_out_outlines("side"), [(s0, 0), (s1, 0), (s1, 9), (s0, 9), (s0, 0)], 1e-6)
+
+
+def test_a_profile_without_boxes_draws_none_and_reconfiguring_clears_them(twin, solvers):
+    profile, kin = boxed_desk_rrr(solvers)
+    twin.configure_for(profile, kin)
+    assert len(twin.keep_out_outlines("top")) > 0
+    plain, plain_kin = solvers["desk_rrr"]
+    twin.configure_for(plain, plain_kin)
+    assert len(twin.keep_out_outlines("top")) == 0 and len(twin.keep_out_outlines("side")) == 0
+    assert twin.desk_margin_line_cm() == pytest.approx(0.5)  # the default 5 mm margin
+
+
+def test_the_side_sections_are_recomputed_only_when_the_arm_plane_turns(twin, solvers, monkeypatch):
+    profile, kin = boxed_desk_rrr(solvers)
+    twin.configure_for(profile, kin)
+    q = np.array(kin.q_home)
+    twin.set_arm(kin.chain_points(q), kin.chain_points(q))
+    calls = []
+    original = twin._side.keep_out.setData
+    monkeypatch.setattr(twin._side.keep_out, "setData", lambda *a, **k: (calls.append(1), original(*a, **k)))
+    q2 = q + (0.0, 0.05, 0.0)  # same azimuth, arm lifted
+    twin.set_arm(kin.chain_points(q2), kin.chain_points(q2))
+    assert calls == []
+    q3 = q + (0.8, 0.0, 0.0)  # turned towards the mug
+    twin.set_arm(kin.chain_points(q3), kin.chain_points(q3))
+    assert calls == [1]
+
+
+def test_box_side_section_is_none_when_the_plane_misses_the_box():
+    from widgets.arm_twin import box_side_section
+
+    assert box_side_section((0.1, 0.1, 0.0), (0.2, 0.2, 0.1), -math.pi / 2) is None  # looking back
+    assert box_side_section((0.1, -0.1, 0.0), (0.2, 0.1, 0.1), 0.0) is not None
+    assert box_side_section((0.1, 0.1, 0.0), (0.2, 0.2, 0.1), 0.0) is None  # beside the +x plane
+
+
+def test_box_edges_are_the_twelve_edges_of_the_box():
+    from widgets.arm_twin_3d import box_edges
+
+    e = box_edges((0, 0, 0), (1, 2, 3))
+    lengths = sorted(float(np.linalg.norm(e[i] - e[i + 1])) for i in range(0, 24, 2))
+    assert e.shape == (24, 3) and lengths == [1.0] * 4 + [2.0] * 4 + [3.0] * 4
