@@ -28,6 +28,7 @@ from app.preferences import WindowPreferences
 from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
 from core.messages import TargetMode
+from core.motion.pick_place import PickPlaceSequence
 from core.vision.markers import default_markers
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
 from core.vision.disparity import (
@@ -97,6 +98,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.calibration_controller: Optional[CalibrationController] = None
         self.help_dialog: Optional[HelpDialog] = None
         self.hand_eye: Optional[HandEyeController] = None
+        self.pick_place: Optional[PickPlaceSequence] = None  # a marker's pick_place action, running
         self._estop_dialogs: list = []  # open dialogs that show the e-stop state (set_estop)
         self._note_timer = QtCore.QTimer(self)
         self._note_timer.setSingleShot(True)
@@ -470,6 +472,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.calibration_controller.feed(result.frame)  # newest only; ignored while closed
         if self.hand_eye is not None:
             self.hand_eye.on_result(result)  # the camera→robot sweep steps with each frame
+        if self.pick_place is not None:
+            self._step_pick_place()
         now = time.monotonic()
         self._frame_times.append(now)
         while self._frame_times and now - self._frame_times[0] > 2.0:
@@ -690,7 +694,10 @@ class MainWindow(QtWidgets.QMainWindow):
         point at it)."""
         spec = self.markers_table.config.marker(marker_id)
         action = spec.action if spec is not None else "follow"
-        if action == "follow":
+        self.pick_place = None
+        if action == "pick_place":
+            self.start_pick_place(marker_id)
+        elif action == "follow":
             self.target_panel.set_mode(TargetMode.FOLLOW.value)
             self.on_mode_changed(TargetMode.FOLLOW.value)
         elif self.session.targeter.mode is TargetMode.FOLLOW:
@@ -698,6 +705,45 @@ class MainWindow(QtWidgets.QMainWindow):
             self.on_mode_changed(TargetMode.MANUAL.value)
         self.on_marker_clicked(marker_id)
         self.markers_table.set_chosen(marker_id)
+
+    def start_pick_place(self, marker_id: int) -> Optional[PickPlaceSequence]:
+        """Pick the marked object up and put it at the place the markers file names for it."""
+        config = self.markers_table.config
+        obs = self._result.marker(marker_id) if self._result is not None else None
+        place = config.place_of(marker_id)
+        if obs is None or not obs.found or obs.base_p_centre is None or place is None:
+            self._show_note(f"pick and place {config.name_of(marker_id)}: it must be seen by both cameras"
+                            if place is not None else f"{config.name_of(marker_id)} has no place in the markers file")
+            return None
+        self.target_panel.set_mode(TargetMode.MANUAL.value)
+        self.on_mode_changed(TargetMode.MANUAL.value)
+        self.pick_place = PickPlaceSequence(obs.base_p_centre, place, label=config.name_of(marker_id))
+        self._step_pick_place()
+        return self.pick_place
+
+    def _step_pick_place(self) -> None:
+        """Advance a running pick and place with the measured tool (each perception result)."""
+        seq = self.pick_place
+        if seq is None or self.session.targeter.mode is not TargetMode.MANUAL:
+            self.pick_place = None  # the user chose another mode: the sequence ends
+            return
+        s = self.session
+        tool = None if self._state is None else np.asarray(s.kinematics.fk(self._state.q), float)[:3]
+        before = seq.message
+        step = seq.step(s.clock.now(), tool)
+        if step.target is not None:
+            grip = None
+            if s.profile.gripper is not None:
+                grip = s.profile.gripper.min_m if step.grip_closed else s.profile.gripper.max_m
+            try:
+                s.targeter.set_manual_pose(step.target, s.targeter.manual_rpy, grip)
+            except ValueError as exc:
+                self._show_note(str(exc))
+            self.target_panel.show_manual_target(step.target)
+        if step.message != before or step.done:
+            self._show_note(step.message)
+        if step.done:
+            self.pick_place = None
 
     @QtCore.Slot(object)
     def on_board_shown(self, board) -> None:

@@ -70,3 +70,28 @@ def test_markers_tab_lists_the_markers_and_a_tap_follows(qtbot, window):
     assert texts[2] == "L R" and len(texts[3].split()) == 3  # seen by both cameras; x y z in cm
     table.sigMarkerChosen.emit(50)
     assert window.session.targeter.mode is TargetMode.FOLLOW and window.session.targeter.follow_id == 50
+
+
+def test_a_pick_place_marker_is_carried_to_its_place(qtbot, tmp_path):
+    markers = tmp_path / "markers.toml"
+    markers.write_text('dictionary = "DICT_6X6_250"\n[places]\nbin = [-0.08, 0.14, 0.03]\n'
+                       '[[marker]]\nid = 23\nname = "cup A"\naction = "pick_place"\nplace = "bin"\n'
+                       '[[marker]]\nid = 50\nname = "cup B"\naction = "follow"\n')
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static", markers=str(markers)))
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    w.resize(800, 480)
+    w.show()
+    w.start()
+    try:
+        qtbot.waitUntil(lambda: w._result is not None and w._result.marker(23) is not None
+                        and w._result.marker(23).found and w._state is not None, timeout=5000)
+        w.markers_table.sigMarkerChosen.emit(23)
+        assert w.pick_place is not None and w.session.targeter.mode is TargetMode.MANUAL
+        qtbot.waitUntil(lambda: w.pick_place is None, timeout=30000)
+        assert "placed" in w._note, w._note
+        tip = np.asarray(w.session.kinematics.fk(w._state.q))[:3]
+        assert np.linalg.norm(tip - np.array([-0.08, 0.14, 0.08])) < 0.02  # back up above the bin
+    finally:
+        w.stop()
+        session.close()
