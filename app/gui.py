@@ -269,6 +269,7 @@ class MainWindow(QtWidgets.QMainWindow):
             # flick-scroll with a finger on touch screens
             QtWidgets.QScroller.grabGesture(area.viewport(), QtWidgets.QScroller.ScrollerGestureType.TouchGesture)
             self.tabs.addTab(area, title)
+        self.tabs.currentChanged.connect(self._on_tab_changed)  # the Markers table fills when shown
         self.splitter.addWidget(self.tabs)
         self.splitter.setStretchFactor(0, 3)
         self.splitter.setStretchFactor(1, 2)
@@ -671,6 +672,10 @@ class MainWindow(QtWidgets.QMainWindow):
             ctl.sigBoardShown.connect(self.on_board_shown)
         self.calibration_controller.set_estop(not self.session.controller.armed)
         self.calibration_controller.open(self)
+
+    @QtCore.Slot(int)
+    def _on_tab_changed(self, _index: int) -> None:
+        self._mark_dirty()  # a table that only updates while shown shows the present at once
 
     @QtCore.Slot()
     def on_open_hand_eye(self):

@@ -59,12 +59,12 @@ def test_the_sweep_drives_the_arm_through_the_targeter_and_cancel_gives_the_mode
 
 def test_markers_tab_lists_the_markers_and_a_tap_follows(qtbot, window):
     index = [window.tabs.tabText(i) for i in range(window.tabs.count())].index("Markers")
-    window.tabs.setCurrentIndex(index)
     table = window.markers_table
     qtbot.waitUntil(lambda: window._result is not None and sum(m.found for m in window._result.markers) >= 2,
                     timeout=5000)
-    window._dirty = True
-    window.redraw()
+    window.tabs.setCurrentIndex(index)
+    assert window.dirty
+    window.redraw()  # switching to the tab marked the window dirty: the table is filled now
     row = table.row_of(50)
     texts = table.row_texts(row)
     assert texts[2] == "L R" and len(texts[3].split()) == 3  # seen by both cameras; x y z in cm
