@@ -67,7 +67,7 @@ class HandEyeController(QtCore.QObject):
             self.wizard.raise_()
             return self.wizard
         w = self.wizard = HandEyeWizard(self.window)
-        w.set_tool_marker(f"tool marker: id {self.marker.marker_id}, {self.marker.size_m * 1e3:g} mm, "
+        w.set_tool_marker(f"id {self.marker.marker_id}, {self.marker.size_m * 1e3:g} mm, "
                           f"{_offset_text(self.marker.offset_m)} from the tool point")
         w.set_estop(self._estop)
         w.sigStartRequested.connect(self.on_start)
