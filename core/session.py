@@ -196,8 +196,8 @@ def check_rig_offset_option(offset) -> tuple[float, ...]:
     if len(values) != 6 or not all(map(math.isfinite, values)):
         raise ValueError(f"--rig-offset {offset!r}: need 6 finite numbers DX,DY,DZ,ROLL,PITCH,YAW (m, degrees)")
     if any(abs(v) > 0.2 for v in values[:3]) or any(abs(v) > math.radians(30.0) + 1e-12 for v in values[3:]):
-        raise ValueError(f"--rig-offset is outside the valid range: |DX|,|DY|,|DZ| ≤ 0.2 m and "
-                         f"|ROLL|,|PITCH|,|YAW| ≤ 30°")
+        raise ValueError("--rig-offset is outside the valid range: |DX|,|DY|,|DZ| ≤ 0.2 m and "
+                         "|ROLL|,|PITCH|,|YAW| ≤ 30°")
     return values
 
 

@@ -9,6 +9,28 @@ import math
 from dataclasses import dataclass, fields
 
 
+def is_number(value) -> bool:
+    """An int or float read from a file, not a bool (TOML's true is not 1)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def toml_type_name(value) -> str:
+    """What a value read from TOML is, in words, for messages ("a string", "a whole number")."""
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, float):
+        return "a decimal number"
+    if isinstance(value, int):
+        return "a whole number"
+    return type(value).__name__
+
+
 class SettingsError(ValueError):
     """A setting is outside its allowed range; the message names field and range."""
 

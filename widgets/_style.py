@@ -239,3 +239,19 @@ def touch_combo(combo: QtWidgets.QComboBox) -> QtWidgets.QComboBox:
     combo.setMinimumHeight(TOUCH_PX)
     wheel_only_when_focused(combo)
     return combo
+
+
+SMALL_SCREEN = (1024, 640)  # at or below this a wizard takes the whole screen
+
+
+def show_adaptive(dialog: QtWidgets.QWidget, desktop_size: tuple[int, int]) -> None:
+    """Show a wizard full screen on small screens (a 7" panel), else as a roomy dialog of at
+    most ``desktop_size`` that leaves a margin around it."""
+    screen = dialog.screen() or QtGui.QGuiApplication.primaryScreen()
+    avail = screen.availableGeometry() if screen is not None else QtCore.QRect(0, 0, 1280, 800)
+    if avail.width() <= SMALL_SCREEN[0] or avail.height() <= SMALL_SCREEN[1]:
+        dialog.setGeometry(avail)
+        dialog.showFullScreen()
+    else:
+        dialog.resize(min(desktop_size[0], avail.width() - 80), min(desktop_size[1], avail.height() - 80))
+        dialog.show()

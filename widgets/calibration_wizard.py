@@ -51,6 +51,7 @@ from core.vision.stereo_calibration import (
     rms_verdict,
 )
 from widgets._style import (
+    show_adaptive,
     ACCENT_COLOUR,
     ERROR_COLOUR,
     OK_COLOUR,
@@ -65,7 +66,6 @@ PAGES = ("board", "capture", "results")
 METERS = (("x", "X"), ("y", "Y"), ("size", "Size"), ("skew", "Skew"))
 MIN_PAIRS = 4  # CalibrationOptions.min_pairs: Calibrate is enabled from here
 GOOD_PAIRS = 12  # a hint: fewer rarely pins down the distortion
-SMALL_SCREEN = (1024, 640)  # at or below this the wizard takes the whole screen
 LIVE_REDRAW_MS = 15
 CHECKBOX_STYLE = f"""
 QCheckBox {{ min-height: {TOUCH_PX}px; spacing: 8px; }}
@@ -796,14 +796,7 @@ class CalibrationWizard(QtWidgets.QDialog):
 
     def show_adaptive(self) -> None:
         """Full screen on small screens (a 7" panel), a roomy dialog on desktops."""
-        screen = self.screen() or QtGui.QGuiApplication.primaryScreen()
-        avail = screen.availableGeometry() if screen is not None else QtCore.QRect(0, 0, 1280, 800)
-        if avail.width() <= SMALL_SCREEN[0] or avail.height() <= SMALL_SCREEN[1]:
-            self.setGeometry(avail)
-            self.showFullScreen()
-        else:
-            self.resize(min(1180, avail.width() - 80), min(780, avail.height() - 80))
-            self.show()
+        show_adaptive(self, (1180, 780))
 
     # ---------------------------------------------------------------------------- worker slots
     @QtCore.Slot(object)

@@ -38,6 +38,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from widgets._style import (
+    show_adaptive,
     ACCENT_COLOUR,
     ERROR_COLOUR,
     INFO_COLOUR,
@@ -80,7 +81,6 @@ METHOD_FIX = {
 N_POSES_RANGE = (4, 40)
 N_POSES_DEFAULT = 12
 MIN_TOUCH_POINTS = 4
-SMALL_SCREEN = (1024, 640)  # at or below this the wizard takes the whole screen
 LIVE_REDRAW_MS = 15
 CHOICE_PX = 64  # the method buttons: two lines of text, big targets
 CHOICE_STYLE = f"""
@@ -302,14 +302,7 @@ class HandEyeWizard(QtWidgets.QDialog):
 
     def show_adaptive(self) -> None:
         """Full screen on small screens (a 7" panel), a roomy dialog on desktops."""
-        screen = self.screen() or QtGui.QGuiApplication.primaryScreen()
-        avail = screen.availableGeometry() if screen is not None else QtCore.QRect(0, 0, 1280, 800)
-        if avail.width() <= SMALL_SCREEN[0] or avail.height() <= SMALL_SCREEN[1]:
-            self.setGeometry(avail)
-            self.showFullScreen()
-        else:
-            self.resize(min(1100, avail.width() - 80), min(720, avail.height() - 80))
-            self.show()
+        show_adaptive(self, (1100, 720))
 
     def _show_status(self, text: str, level: str, tooltip: str = "") -> None:
         self.status_label.setText(text)

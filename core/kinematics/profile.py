@@ -48,6 +48,8 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Sequence, Union
 
 from core.kinematics.base import MAX_JOINTS, ProfileError
+from core.settings import is_number as _is_number
+from core.settings import toml_type_name as _type_name
 
 try:
     import tomllib
@@ -438,8 +440,6 @@ class RobotProfile:
 # Validation helpers (shared by the loader and the dataclasses' __post_init__)
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _fmt(value: float) -> str:
@@ -681,18 +681,6 @@ class _Reader:
                 )
 
 
-def _type_name(value: Any) -> str:
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return "an array"
-    if isinstance(value, str):
-        return "a string"
-    if _is_number(value):
-        return "a number"
-    return type(value).__name__
 
 
 _TOP_KEYS = ("name", "kind", "description", "geometry", "joints", "gripper", "workspace", "tool_marker")

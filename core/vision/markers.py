@@ -32,6 +32,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Optional, Union
 
+from core.settings import is_number as _is_number
+from core.settings import toml_type_name as _type_name
+
 from core.paths import os_error_reason, user_dir
 from core.vision.perception import (
     ARUCO_DICTIONARIES,
@@ -205,24 +208,8 @@ def _check_marker(where: str, path: str, marker_id: Any, name: Any, action: Any,
                            "one of the [places] table's names")
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _type_name(value: Any) -> str:
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return "an array"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, float):
-        return "a decimal number"
-    if isinstance(value, int):
-        return "a whole number"
-    return type(value).__name__
 
 
 # --------------------------------------------------------------------------------------------

@@ -87,7 +87,7 @@ BAD_WORKSPACE = [
     ("[workspace]\ndesk_margin_m = nan\n", "workspace.desk_margin_m = nan is outside 0…0.1"),
     ("[workspace]\ndesk_margin_m = true\n", "workspace.desk_margin_m = True must be a number"),
     ("[workspace]\nmargin = 0.01\n", "unknown key workspace.margin; expected one of desk_margin_m, keep_out"),
-    ("workspace = 3\n", "workspace must be a table ([workspace]), got a number"),
+    ("workspace = 3\n", "workspace must be a table ([workspace]), got a whole number"),
     (BOX.replace("max = [0.3, 0.4, 0.4]", "max = [0.3, 0.2, 0.4]"),
      "workspace.keep_out[0].max y = 0.2 must be greater than min y = 0.25"),
     (BOX.replace("max = [0.3, 0.4, 0.4]", "max = [0.3, 0.4, 6.0]"),
