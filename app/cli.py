@@ -39,6 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
     p.add_argument("--json", action="store_true", help="headless: end with one JSON object of metrics")
+    p.add_argument("--record", nargs="?", const="", default=None, metavar="PATH",
+                   help="headless: record the run as a rosbag2 folder (MCAP) at PATH "
+                        "(default: a new deskarm-YYYYmmdd-HHMMSS folder in the recordings folder)")
     p.add_argument("--tick-driven", action="store_true",
                    help="run the control step only on its 50 Hz tick (a new goal waits for it); "
                         "default: at once on each new goal — kept to compare latencies")
@@ -64,6 +67,7 @@ SUBCOMMANDS = {
     "ik": "app.cli_kinematics",
     "bench-ik": "app.cli_kinematics",
     "calibrate-hand-eye": "app.cli_handeye",
+    "serve": "app.cli_serve",
 }
 
 
@@ -101,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.headless:
             from app.headless import run_headless
 
-            return run_headless(options, args.duration, args.json)
+            return run_headless(options, args.duration, args.json, record=args.record)
         if args.screenshot:
             os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
             from app.gui import take_screenshot

@@ -99,6 +99,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.help_dialog: Optional[HelpDialog] = None
         self.hand_eye: Optional[HandEyeController] = None
         self.pick_place: Optional[PickPlaceSequence] = None  # a marker's pick_place action, running
+        self.recorder = None  # core.record.Recorder while the Record button is on
         self._estop_dialogs: list = []  # open dialogs that show the e-stop state (set_estop)
         self._note_timer = QtCore.QTimer(self)
         self._note_timer.setSingleShot(True)
@@ -175,6 +176,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.target_status = self.target_panel.detach_reach_label()
         messages.addWidget(self.target_status)
         top.addLayout(messages, 1)
+        self.record_button = touch_button("● REC", checkable=True)  # record the session (rosbag2/MCAP)
+        self.record_button.setToolTip("Record cameras, markers, goals and joints as a rosbag2 folder (MCAP) "
+                                      "in the recordings folder; tap again to stop")
+        self.record_button.setMinimumHeight(TOUCH_PX + 8)
+        self.record_button.toggled.connect(self.on_record_toggled)
+        top.addWidget(self.record_button)
         self.estop_button = EStopButton()
         self.estop_button.sigStopRequested.connect(self.on_stop_requested)
         top.addWidget(self.estop_button)
@@ -422,6 +429,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.calibration_controller.close()  # stops and joins the wizard's worker
         if self.hand_eye is not None:
             self.hand_eye.close()
+        self._stop_recording()
         self.workers.stop()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
@@ -475,6 +483,10 @@ class MainWindow(QtWidgets.QMainWindow):
             self.hand_eye.on_result(result)  # the camera→robot sweep steps with each frame
         if self.pick_place is not None:
             self._step_pick_place()
+        if self.recorder is not None:  # queue puts: the recorder's own thread encodes and writes
+            if result.frame is not None:
+                self.recorder.frame(result.frame)
+            self.recorder.result(result)
         now = time.monotonic()
         self._frame_times.append(now)
         while self._frame_times and now - self._frame_times[0] > 2.0:
@@ -538,6 +550,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """A control tick's command: up to 50 Hz, also while the arm holds still (the held
         command again with a new seq), which marks nothing dirty."""
         self._command, self._goal = command, goal
+        if self.recorder is not None:
+            self.recorder.command(command, goal)
         if command.source_t is not None and command.source_t != self._latency_source_t:
             # the first command carrying a new frame: frame -> command (as shown here); the
             # ticks after it carry the same frame time, their age is not a latency
@@ -551,6 +565,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_state(self, state) -> None:
         """The bridge's joint state: after each write and at 10 Hz while idle."""
         self._state = state
+        if self.recorder is not None:
+            self.recorder.state(state)
         if not self._only_changes or (not self._dirty and state_changed(self._drawn_state, state)):
             self._mark_dirty()
 
@@ -672,6 +688,57 @@ class MainWindow(QtWidgets.QMainWindow):
             ctl.sigBoardShown.connect(self.on_board_shown)
         self.calibration_controller.set_estop(not self.session.controller.armed)
         self.calibration_controller.open(self)
+
+    # --- recording ------------------------------------------------------------------------------
+    @QtCore.Slot(bool)
+    def on_record_toggled(self, on: bool) -> None:
+        """● REC: record this session as a rosbag2 folder (MCAP) in the recordings folder."""
+        if not on:
+            path = self._stop_recording()
+            if path:
+                self._show_note(f"recording saved: {path} — replay it with `deskarm --camera replay:{path}`")
+            return
+        from core.record.recorder import Recorder
+
+        s = self.session
+        try:
+            self.recorder = Recorder.for_session(s).start(
+                calibration=s.calibration, base_T_camera=s.perception.base_T_camera,
+                estopped=not s.controller.armed)
+        except (OSError, ValueError) as exc:
+            self.recorder = None
+            self._show_note(f"cannot record: {exc}")
+            blocked = self.record_button.blockSignals(True)
+            self.record_button.setChecked(False)
+            self.record_button.blockSignals(blocked)
+        self._refresh_record_button()
+
+    def _stop_recording(self) -> str:
+        """Close the recorder (joins its thread); the folder's path, "" when none was recording."""
+        recorder, self.recorder = self.recorder, None
+        if recorder is None:
+            return ""
+        recorder.close()
+        if recorder.error:
+            self._show_note(f"recording stopped: {recorder.error}")
+        self._refresh_record_button()
+        return str(recorder.path)
+
+    def _refresh_record_button(self) -> None:
+        r = self.recorder
+        if r is None:
+            text = "● REC"
+        elif r.error:  # disk full: the recording ends, the loop goes on
+            self._show_note(f"recording stopped: {r.error}")
+            self.record_button.setChecked(False)
+            return
+        else:
+            m, sec = divmod(int(r.elapsed_s), 60)
+            text = f"■ {m}:{sec:02d}\n{r.bytes_written / 1e6:.0f} MB"
+            if r.frames_dropped:
+                text += f" · {r.frames_dropped} lost"
+        if self.record_button.text() != text:
+            self.record_button.setText(text)
 
     @QtCore.Slot(int)
     def _on_tab_changed(self, _index: int) -> None:
@@ -850,6 +917,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session.controller.rearm()
         self.estop_button.set_engaged(engaged)
         self.rearm_button.setVisible(engaged)
+        if self.recorder is not None:
+            self.recorder.estop(engaged)
         if self.calibration_controller is not None:
             self.calibration_controller.set_estop(engaged)
         if self.hand_eye is not None:
@@ -1070,6 +1139,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """fps on the views; camera, bridge, fps and latency in the status bar (2 Hz timer)."""
         s = self.session
         self.check_modal_dialog()
+        self._refresh_record_button()
         fps = self._fps()
         r = self._result
         if r is not None and r.frame is not None:

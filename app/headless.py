@@ -10,6 +10,10 @@ A serial board that goes away does not end the run: the bridge is reconnected wi
 backoff as the window's bridge worker (``core.devices.reconnect.Reconnector``), and the summary
 counts the losses (``bridge_disconnects``) and the time without a link (``disconnected_s``).
 Per-frame samples are kept in bounded reservoirs, so a soak of any length has a flat memory.
+
+With ``--record [PATH]`` the run is recorded (``core.record.Recorder``: a rosbag2 folder, MCAP):
+every frame, perception result, command, joint state, e-stop change and camera→robot change is
+handed to the recorder's thread without waiting; a failing disk stops the recording, not the run.
 """
 from __future__ import annotations
 
@@ -170,8 +174,10 @@ def command_outside_limits(sent, cmd, bridge, profile) -> bool:
 class HeadlessRunner:
     """Runs a DeskSession for ``duration`` seconds and collects RunMetrics."""
 
-    def __init__(self, session: DeskSession, duration_s: float, status: Callable[[str], None] | None = None):
+    def __init__(self, session: DeskSession, duration_s: float, status: Callable[[str], None] | None = None,
+                 recorder=None):
         self.s = session
+        self.recorder = recorder  # a started core.record.Recorder, or None
         self.duration_s = check_duration(duration_s)
         self.status = status or (lambda line: None)
         self.metrics = RunMetrics(scenario=session.options.scenario)
@@ -183,6 +189,7 @@ class HeadlessRunner:
         self.schedule = None
         # the window's backoff (0.5 s … 5 s), on the session's clock (simulated with --fast)
         self.reconnector = Reconnector(now=session.clock.now)
+        self._recorded_base_T_camera = session.perception.base_T_camera
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
@@ -208,6 +215,8 @@ class HeadlessRunner:
                     continue
                 frame = s.camera.read()
                 if frame is None:
+                    if getattr(s.camera, "finished", False):
+                        break  # a replay ends with its recording, not with --duration
                     continue
                 w0 = time.perf_counter()
                 result = s.perception.process(frame)
@@ -215,6 +224,8 @@ class HeadlessRunner:
                     from dataclasses import replace
 
                     result = replace(result, ball_left_px=s.ball_finder.find(frame.left))
+                if self.recorder is not None:
+                    self._record_frame(frame, result)
                 self._goal = s.targeter.update(result)
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))
@@ -264,6 +275,8 @@ class HeadlessRunner:
             pending_latency.clear()
             return
         ctrl_wall = time.perf_counter() - w0
+        if self.recorder is not None:
+            self.recorder.command(cmd, self._goal)
         m.commands_sent += 1
         if command_outside_limits(sent, cmd, s.bridge, s.profile):
             m.limit_violations += 1
@@ -281,7 +294,21 @@ class HeadlessRunner:
             return
         if hasattr(s.camera, "set_arm_points") and state is not None:
             s.camera.set_arm_points(s.kinematics.chain_points(state.q))
+        if self.recorder is not None:
+            self.recorder.state(state)
         self._score_reach(cmd, state)
+
+    def _record_frame(self, frame, result) -> None:
+        """Hand this frame's messages to the recorder (queue puts: nothing waits for the disk)."""
+        rec, s = self.recorder, self.s
+        rec.frame(frame)
+        rec.result(result)
+        rec.estop(s.bridge.is_estopped)
+        base_T_camera = s.perception.base_T_camera
+        if base_T_camera is not self._recorded_base_T_camera:  # replaced (hand-eye): a new /tf_static
+            if not np.array_equal(base_T_camera, self._recorded_base_T_camera):
+                rec.calibration(base_T_camera=base_T_camera)
+            self._recorded_base_T_camera = base_T_camera
 
     def _score_frame(self, frame, result) -> None:
         m = self.metrics
@@ -359,11 +386,25 @@ class HeadlessRunner:
         )
 
 
-def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None) -> int:
-    """Entry point of ``deskarm --headless``; returns the process exit code."""
+def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None, record=None) -> int:
+    """Entry point of ``deskarm --headless``; returns the process exit code.
+
+    ``record``: None (no recording), True or "" (a new folder under the recordings folder) or a
+    path (a new rosbag2 folder there)."""
     out = out or sys.stdout
     duration_s = check_duration(duration_s)  # before any device is opened
     session = DeskSession.create(options)
+    recorder = None
+    if record is not None and record is not False:
+        from core.record.recorder import Recorder
+
+        try:
+            recorder = Recorder.for_session(session, None if record in (True, "") else record)
+            recorder.start(session.calibration, session.perception.base_T_camera, session.bridge.is_estopped)
+        except (OSError, ValueError):
+            session.close()
+            raise
+        print(f"deskarm: recording to {recorder.path}", file=out)
     for banner in session.banners:
         print(f"deskarm: {banner}", file=out)
     mode = "as fast as possible (simulated clock)" if options.simulated_clock else f"paced at {options.fps:g} fps"
@@ -372,10 +413,19 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
         f"robot {session.profile.name}, scenario {options.scenario}, {duration_s:g} s {mode}",
         file=out,
     )
-    runner = HeadlessRunner(session, duration_s, status=lambda line: print(line, file=out, flush=True))
+    runner = HeadlessRunner(session, duration_s, status=lambda line: print(line, file=out, flush=True),
+                            recorder=recorder)
     freeze_startup_objects()
-    metrics = runner.run()
+    try:
+        metrics = runner.run()
+    finally:
+        if recorder is not None:
+            recorder.close()
     summary = metrics.summary()
+    if recorder is not None:
+        summary.update(record_summary(recorder))
+        if recorder.error:
+            print(f"deskarm: {recorder.error}", file=out, flush=True)
     if as_json:
         print(json.dumps(summary), file=out, flush=True)
     else:
@@ -385,4 +435,20 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
             f"limit violations {summary['limit_violations']}",
             file=out,
         )
+        if recorder is not None:
+            print(f"recorded: {summary['record_path']}, {summary['frames_recorded']} frames "
+                  f"({summary['frames_dropped']} dropped), {summary['record_mb']} MB", file=out)
     return 0
+
+
+def record_summary(recorder) -> dict:
+    """The recording's part of the headless JSON (after ``recorder.close()``)."""
+    from core.record.recorder import folder_size
+
+    return {
+        "record_path": str(recorder.path),
+        "frames_recorded": recorder.frames_written,
+        "frames_dropped": recorder.frames_dropped,
+        "record_mb": round(folder_size(recorder.path) / 1e6, 3),
+        "record_error": recorder.error or None,
+    }

@@ -39,12 +39,21 @@ def collect(quick: bool = False) -> list[dict]:
     from bench import bench_pipeline
 
     rows += bench_pipeline.rows(quick)
+    from bench import bench_record
+
+    rows += bench_record.rows(quick)
     from bench import bench_window
 
     rows += bench_window.rows(quick)
     from bench import bench_startup
 
     rows += bench_startup.rows(quick)
+    try:
+        from bench import bench_remote
+
+        rows += bench_remote.rows(quick)
+    except (ImportError, RuntimeError) as exc:  # pragma: no cover - no zenoh, or no loopback session
+        print(f"bench: remote desk benchmark unavailable: {exc}", file=sys.stderr)
     return rows
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 
 def user_dir(kind: str) -> Path:
-    """Per-user config or cache folder (``DESKARM_HOME`` overrides, e.g. in tests)."""
+    """Per-user config, data or cache folder (``DESKARM_HOME`` overrides, e.g. in tests)."""
     root = os.environ.get("DESKARM_HOME")
     if root:
         return Path(root) / kind
@@ -17,6 +17,8 @@ def user_dir(kind: str) -> Path:
 
     if kind == "config":
         return Path(platformdirs.user_config_dir("deskarm"))
+    if kind == "data":  # files users keep (recordings)
+        return Path(platformdirs.user_data_dir("deskarm"))
     return Path(platformdirs.user_cache_dir("deskarm"))
 
 
@@ -31,7 +33,7 @@ def os_error_reason(exc: OSError) -> str:
 
 def _user_folder_hint(path: Path) -> str:
     try:
-        mine = any(path.resolve().is_relative_to(user_dir(k).resolve()) for k in ("config", "cache"))
+        mine = any(path.resolve().is_relative_to(user_dir(k).resolve()) for k in ("config", "data", "cache"))
     except (OSError, RuntimeError):  # an unresolvable path is simply not one of ours
         mine = False
     return " or set DESKARM_HOME to a writable folder" if mine else " or choose another path"

@@ -98,6 +98,12 @@ class DeskSession:
         camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps,
                                      fallback_to_sim=simulated_arm)
         banners = [banner] if banner else []
+        if getattr(camera, "kind", "") == "replay":
+            if not simulated_arm:  # a recorded scene never drives a real arm
+                camera.disconnect()
+                raise ValueError(f"--camera {options.camera}: a recording drives only the simulated arm (--bridge "
+                                 "sim://) — a real arm would reach for objects that are not on the desk")
+            banners += list(camera.recording.compatibility_warnings(options.robot)) + list(camera.warnings)
         calibration, note = load_session_calibration(camera, options.calibration)
         if note:
             banners.append(note)
@@ -159,6 +165,9 @@ class DeskSession:
             simulated_arm = parse_bridge_url(bridge_url) == "sim"
         except ValueError:
             return ""  # not a bridge URL at all: open_bridge says so
+        if not simulated_arm and getattr(self.camera, "kind", "") == "replay":
+            return (f"{bridge_url}: not connected — the views replay a recording; a real arm would reach for "
+                    "objects that are not on the desk. Restart without --camera replay:… to drive it")
         if simulated_arm or not self.is_simulated_camera or self.options.camera == "sim":
             return ""
         return (f"{bridge_url}: not connected — no camera was found, the views show the simulated desk, and a "
@@ -216,6 +225,8 @@ def resolve_base_T_camera(camera, hand_eye_path: Optional[str]):
     from core.handeye import HandEyeFileError, default_hand_eye_path, load_hand_eye
 
     nominal = camera.base_T_camera()
+    if getattr(camera, "kind", "") == "replay" and not hand_eye_path:
+        return nominal, None, "camera→robot: as recorded", ""  # the recording's own pose
     if nominal is None:
         from core.sim.rig import SimRig
 

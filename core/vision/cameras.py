@@ -798,7 +798,7 @@ class FolderStereoCamera(ClockPacedSource):
 CAMERA_CHOICES = (
     "auto (webcams 0,1, else the simulated desk) | sim | IDX,IDX (two webcam indices, e.g. 0,2) | "
     "/dev/videoN,/dev/videoM or /dev/v4l/by-id/...,... | sbs:DEV (one side-by-side stereo camera) | "
-    "folder:PATH or a folder PATH (saved left_*/right_* image pairs); "
+    "folder:PATH or a folder PATH (saved left_*/right_* image pairs) | replay:PATH (a deskarm recording); "
     "webcams take @WxH, @FPS and @FOURCC, e.g. 0,2@640x480@30@MJPG"
 )
 
@@ -807,9 +807,9 @@ CAMERA_CHOICES = (
 class CameraSpec:
     """A parsed --camera value."""
 
-    kind: str  # auto | sim | webcam | sbs | folder
+    kind: str  # auto | sim | webcam | sbs | folder | replay
     devices: tuple = ()  # webcam: (left, right); sbs: (device,)
-    path: Optional[str] = None  # folder
+    path: Optional[str] = None  # folder, replay
     size: Optional[tuple[int, int]] = None  # @WxH (per eye)
     fps: Optional[float] = None  # @FPS
     fourcc: Optional[str] = None  # @FOURCC
@@ -837,6 +837,11 @@ def camera_spec(spec: str) -> CameraSpec:
         if not path:
             raise bad
         return CameraSpec("folder", path=path)
+    if raw.startswith("replay:"):
+        path = raw[len("replay:"):]
+        if not path:
+            raise ValueError(f"--camera {raw!r}: name the recording, e.g. replay:recordings/2026-11-05_1412")
+        return CameraSpec("replay", path=path)
     if "," not in raw and not raw.startswith("sbs:") and os.path.isdir(raw) and not raw.startswith("/dev/"):
         return CameraSpec("folder", path=raw)
     head, *options = raw.split("@")
@@ -865,19 +870,29 @@ def camera_spec(spec: str) -> CameraSpec:
 
 
 def parse_camera_spec(spec: str) -> tuple[str, tuple]:
-    """('sim', ()), ('auto', (0, 1)), ('webcam', (left, right)), ('sbs', (device,)) or
-    ('folder', (path,)); ValueError names the spec and the valid forms."""
+    """('sim', ()), ('auto', (0, 1)), ('webcam', (left, right)), ('sbs', (device,)),
+    ('folder', (path,)) or ('replay', (path,)); ValueError names the spec and the valid forms."""
     s = camera_spec(spec)
-    return s.kind, ((s.path,) if s.kind == "folder" else s.devices)
+    return s.kind, ((s.path,) if s.kind in ("folder", "replay") else s.devices)
 
 
 SIMULATED_CAMERA = "core.sim.camera:SimStereoCamera"  # by name: vision/ never imports sim/
+REPLAY_CAMERA = "core.record.replay:ReplayStereoCamera"  # by name: vision/ never imports record/
+
+
+def _named_class(name: str):
+    module_name, class_name = name.split(":")
+    return getattr(importlib.import_module(module_name), class_name)
 
 
 def simulated_camera(**options) -> CameraSource:
     """The simulated desk's stereo camera (``core.sim``), imported by name only when asked for."""
-    module_name, class_name = SIMULATED_CAMERA.split(":")
-    return getattr(importlib.import_module(module_name), class_name)(**options)
+    return _named_class(SIMULATED_CAMERA)(**options)
+
+
+def replay_camera(path, **options) -> CameraSource:
+    """A recording played back as a camera (``core.record``), imported by name only when asked for."""
+    return _named_class(REPLAY_CAMERA)(path, **options)
 
 
 def open_camera(spec: str, scenario: str = "static", clock=None, fps: float = 30.0,
@@ -888,9 +903,14 @@ def open_camera(spec: str, scenario: str = "static", clock=None, fps: float = 30
     in, a simulated arm). A webcam the user named, or any webcam when ``fallback_to_sim`` is off
     (a real arm attached), that does not open gives that source, not connected and retrying,
     with a banner saying so: a missing camera is a visible state, never a crash and never a
-    simulated scene behind a real arm. A folder that cannot be read raises CameraError.
+    simulated scene behind a real arm. A folder or a recording that cannot be read raises
+    CameraError. A recording (``replay:PATH``) plays at its recorded rate on ``clock``.
     """
     s = camera_spec(spec)
+    if s.kind == "replay":
+        cam = replay_camera(s.path, clock=clock)
+        cam.connect()  # CameraError naming the recording and what is wrong with it
+        return cam, f"REPLAY — {s.path}"
     if s.kind == "sim":
         cam = simulated_camera(scenario=scenario, fps=fps, clock=clock)
         cam.connect()
@@ -923,7 +943,8 @@ def open_camera(spec: str, scenario: str = "static", clock=None, fps: float = 30
 
 
 __all__ = [
-    "CameraSource", "ClockPacedSource", "simulated_camera", "WebcamStereoCamera", "FolderStereoCamera", "CameraError",
+    "CameraSource", "ClockPacedSource", "simulated_camera", "replay_camera", "WebcamStereoCamera",
+    "FolderStereoCamera", "CameraError",
     "CameraControl", "CONTROL_NAMES", "open_camera", "parse_camera_spec", "camera_spec", "CameraSpec",
     "CAMERA_CHOICES", "SimClock", "pick_pair", "find_image_pairs", "pair_image_files",
     "v4l2_control_ranges", "default_capture_factory",

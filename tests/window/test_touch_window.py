@@ -328,3 +328,24 @@ def test_the_wizard_dictionary_list_has_finger_sized_rows(qtbot):
     qtbot.addWidget(wizard)
     combo = wizard.fields["dictionary"]
     assert combo.view().sizeHintForRow(0) >= TOUCH_PX
+
+
+def test_record_button_records_the_session_and_a_replay_reads_it(qtbot, small, tmp_path, monkeypatch):
+    from core.record.reader import open_recording
+
+    monkeypatch.setenv("DESKARM_HOME", str(tmp_path))
+    small.start()
+    try:
+        qtbot.waitUntil(lambda: small._result is not None, timeout=5000)
+        small.record_button.click()
+        assert small.recorder is not None and small.record_button.height() >= TOUCH_PX
+        qtbot.waitUntil(lambda: small.recorder.frames_written >= 10, timeout=10000)
+        small._refresh_status()
+        assert small.record_button.text().startswith("■")
+        path = small.recorder.path
+        small.record_button.click()  # stop: the recorder's thread is joined, the note names the folder
+        assert small.recorder is None and str(path) in small._note
+    finally:
+        small.stop()
+    recording = open_recording(path)
+    assert recording.topics["/deskarm/camera/left/image/compressed"] >= 10 and recording.session.robot == "desk_rrr"
