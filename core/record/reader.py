@@ -17,7 +17,6 @@ from __future__ import annotations
 import bisect
 import json
 import math
-import os
 import tempfile
 from collections import deque
 from dataclasses import dataclass, field
