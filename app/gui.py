@@ -39,7 +39,7 @@ from core.vision.disparity import (
     load_preset,
     save_preset,
 )
-from widgets._style import TOUCH_PX, touch_button, touch_scroll_area
+from widgets._style import TOUCH_PX, touch_button, touch_scroll_area, touch_slider
 from widgets.arm_twin import ArmTwin, profile_joint_levels, same_points
 from widgets.arm_twin_3d import available_3d, make_twin_3d
 from widgets.bridge_picker import BridgePicker
@@ -50,6 +50,7 @@ from widgets.estop import EStopButton, RearmButton
 from widgets.help_dialog import HelpDialog
 from widgets.joint_readout import JointReadout
 from widgets.markers_table import MarkersTable
+from widgets.recordings_dialog import RecordingsDialog
 from widgets.pose_panel import PosePanel, pose_panel_applies, pose_target_from_matrix
 from widgets.status import Banner, StatusBarItems
 from widgets.stereo_panel import StereoPanel
@@ -209,6 +210,9 @@ class MainWindow(QtWidgets.QMainWindow):
             v.sigMarkerClicked.connect(self.on_marker_clicked)
             v.sigClicked.connect(self.on_view_clicked)
         left_layout.addLayout(cams, 3)
+        self.replay_bar = self._build_replay_bar()  # only for --camera replay:PATH
+        if self.replay_bar is not None:
+            left_layout.addWidget(self.replay_bar)
         self.twin = ArmTwin()
         self.twin.configure_for(s.profile, s.kinematics)
         self.twin3d = None  # created on first use: the first GL widget re-composites the window
@@ -307,6 +311,40 @@ class MainWindow(QtWidgets.QMainWindow):
         sp.sigPresetDeleteRequested.connect(self.on_preset_delete)
         self._update_preview()
 
+    def _build_replay_bar(self) -> Optional[QtWidgets.QWidget]:
+        """A replay's progress and a seek slider (None for live cameras)."""
+        if getattr(self.session.camera, "kind", "") != "replay":
+            return None
+        bar = QtWidgets.QWidget()
+        row = QtWidgets.QHBoxLayout(bar)
+        row.setContentsMargins(0, 0, 0, 0)
+        self.replay_label = QtWidgets.QLabel("replay 0:00")
+        row.addWidget(self.replay_label)
+        self.replay_slider = touch_slider(QtWidgets.QSlider(QtCore.Qt.Orientation.Horizontal))
+        self.replay_slider.setRange(0, 1000)
+        self.replay_slider.sliderReleased.connect(self.on_replay_seek)
+        row.addWidget(self.replay_slider, 1)
+        return bar
+
+    @QtCore.Slot()
+    def on_replay_seek(self) -> None:
+        """The seek slider was let go: the replay continues from there."""
+        camera = self.session.camera
+        camera.seek(self.replay_slider.value() / 1000.0 * camera.duration_s)
+
+    def _refresh_replay_bar(self) -> None:
+        camera = self.session.camera
+        if self.replay_bar is None or self.replay_slider.isSliderDown():
+            return
+        blocked = self.replay_slider.blockSignals(True)
+        self.replay_slider.setValue(round(camera.progress * 1000))
+        self.replay_slider.blockSignals(blocked)
+        done = camera.progress * camera.duration_s
+        text = f"replay {int(done) // 60}:{int(done) % 60:02d} / {int(camera.duration_s) // 60}:" \
+               f"{int(camera.duration_s) % 60:02d}"
+        if self.replay_label.text() != text:
+            self.replay_label.setText(text)
+
     def _build_menu_button(self) -> QtWidgets.QToolButton:
         """☰: full screen, help, quit — the way out and in on a kiosk with no window manager."""
         button = QtWidgets.QToolButton()
@@ -320,6 +358,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.fullscreen_action = menu.addAction("Full screen", self.toggle_fullscreen)
         self.fullscreen_action.setShortcut(QtGui.QKeySequence("F11"))
         self.fullscreen_action.setCheckable(True)
+        self.recordings_action = menu.addAction("Recordings…", self.show_recordings)
         self.help_action = menu.addAction("Help && about", self.show_help)
         self.help_action.setShortcut(QtGui.QKeySequence("F1"))
         menu.addSeparator()
@@ -360,6 +399,23 @@ class MainWindow(QtWidgets.QMainWindow):
         self.help_dialog.show()
         self.help_dialog.raise_()
         return self.help_dialog
+
+    @QtCore.Slot()
+    def show_recordings(self) -> RecordingsDialog:
+        """☰ → Recordings…: what was recorded, and the command that replays it."""
+        from core.record.recorder import list_recordings, recordings_dir
+
+        dialog = getattr(self, "recordings_dialog", None)
+        if dialog is None:
+            dialog = self.recordings_dialog = RecordingsDialog(str(recordings_dir()), parent=self)
+            dialog.sigStopRequested.connect(self.on_stop_requested)
+            self._estop_dialogs.append(dialog)
+        dialog.set_recordings(list_recordings())
+        dialog.set_estop(not self.session.controller.armed)
+        dialog.resize(min(760, self.width()), min(440, self.height()))
+        dialog.show()
+        dialog.raise_()
+        return dialog
 
     def _settings_file(self) -> str:
         return str(self.preferences.path)
@@ -1102,12 +1158,20 @@ class MainWindow(QtWidgets.QMainWindow):
             twin.set_markers({m.marker_id: np.asarray(m.base_p_centre) for m in r.markers if m.found and m.base_p_centre is not None})
         q_cmd = self._command.q if self._command is not None else None
         q_meas = self._state.q if self._state is not None else None
+        recorded = getattr(s.camera, "recorded_state_at", None)
+        if recorded is not None and r is not None and r.frame is not None:
+            # a replay: the recorded arm beside the command re-computed from the recorded frames
+            state = recorded(r.frame.t)
+            if state is not None:
+                q_meas = state.q
         twin.set_arm(None if q_cmd is None else np.asarray(s.kinematics.chain_points(q_cmd)),
                      None if q_meas is None else np.asarray(s.kinematics.chain_points(q_meas)))
         if hasattr(s.kinematics, "arm_segments"):  # the delta's three arms
             twin.set_extra_segments(None if q_meas is None else list(s.kinematics.arm_segments(q_meas)))
         twin.set_joint_levels(None if q_meas is None else profile_joint_levels(s.profile, q_meas))
-        if self._state is not None:
+        if recorded is not None:
+            twin.set_measured_label("recorded arm")
+        elif self._state is not None:
             twin.set_measured_label("measured" if self._state.measured else "commanded (no feedback)")
         goal, cmd = self._goal, self._command
         if goal is not None:
@@ -1140,6 +1204,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         self.check_modal_dialog()
         self._refresh_record_button()
+        self._refresh_replay_bar()
         fps = self._fps()
         r = self._result
         if r is not None and r.frame is not None:

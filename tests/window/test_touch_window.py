@@ -349,3 +349,41 @@ def test_record_button_records_the_session_and_a_replay_reads_it(qtbot, small, t
         small.stop()
     recording = open_recording(path)
     assert recording.topics["/deskarm/camera/left/image/compressed"] >= 10 and recording.session.robot == "desk_rrr"
+
+
+def test_a_replay_has_a_seek_bar_shows_the_recorded_arm_and_is_listed(qtbot, tmp_path, monkeypatch):
+    import subprocess
+    import sys
+
+    monkeypatch.setenv("DESKARM_HOME", str(tmp_path))
+    from core.record.recorder import default_recording_path
+
+    path = default_recording_path()
+    done = subprocess.run([sys.executable, "-m", "app.cli", "--headless", "--fast", "--duration", "2",
+                           "--record", str(path)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    session = DeskSession.create(SessionOptions(camera=f"replay:{path}", scenario="static"))
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    w.resize(*SMALL)
+    w.show()
+    w.start()
+    try:
+        assert w.replay_bar is not None and w.replay_slider.height() >= TOUCH_PX
+        qtbot.waitUntil(lambda: w._result is not None and w._state is not None, timeout=5000)
+        w._refresh_status()
+        assert w.replay_label.text().startswith("replay")
+        w._dirty = True
+        w.redraw()
+        assert "recorded arm" in w.twin.legend_text()
+        w.replay_slider.setValue(500)
+        w.on_replay_seek()  # the replay continues from the middle
+        dialog = w.show_recordings()
+        assert dialog.list.count() == 1 and "2 s" in dialog.list.item(0).text()
+        dialog.list.setCurrentRow(0)
+        assert f"replay:{path}" in dialog.command_label.text()
+        qtbot.mouseClick(dialog.estop_strip.stop_button, QtCore.Qt.MouseButton.LeftButton)
+        assert not w.session.controller.armed
+    finally:
+        w.stop()
+        session.close()
