@@ -101,6 +101,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.hand_eye: Optional[HandEyeController] = None
         self.pick_place: Optional[PickPlaceSequence] = None  # a marker's pick_place action, running
         self.recorder = None  # core.record.Recorder while the Record button is on
+        self.record_path: Optional[str] = None  # where the next recording goes (None: a new dated folder)
         self._estop_dialogs: list = []  # open dialogs that show the e-stop state (set_estop)
         self._note_timer = QtCore.QTimer(self)
         self._note_timer.setSingleShot(True)
@@ -757,8 +758,9 @@ class MainWindow(QtWidgets.QMainWindow):
         from core.record.recorder import Recorder
 
         s = self.session
+        path, self.record_path = self.record_path, None  # --record PATH: the first recording goes there
         try:
-            self.recorder = Recorder.for_session(s).start(
+            self.recorder = Recorder.for_session(s, path or None).start(
                 calibration=s.calibration, base_T_camera=s.perception.base_T_camera,
                 estopped=not s.controller.armed)
         except (OSError, ValueError) as exc:
@@ -1399,7 +1401,7 @@ def deskarm_version() -> str:
 
 
 def run_window(options: SessionOptions, size: tuple[int, int],
-               splash: Optional[QtWidgets.QWidget] = None) -> int:
+               splash: Optional[QtWidgets.QWidget] = None, record: Optional[str] = None) -> int:
     """Open the window and run until it is closed (fitted to the screen it opens on); the
     start-up ``splash`` (app.startup.show_splash) stays up until the window shows."""
     app = make_app()
@@ -1427,6 +1429,9 @@ def run_window(options: SessionOptions, size: tuple[int, int],
         window.show()
     finish_splash(splash)
     window.start()
+    if record is not None:  # --record [PATH]: recording from the start (● REC stops it)
+        window.record_path = record or None
+        window.record_button.setChecked(True)
     return app.exec()
 
 
