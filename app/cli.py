@@ -35,6 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="camera→robot calibration TOML (default: the saved one, when it is for these cameras)")
     p.add_argument("--rig-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
                    help="simulated desk: the rig is mounted this far off its nominal pose (m, degrees)")
+    p.add_argument("--remote", default=None, metavar="ENDPOINT",
+                   help="open the window (or headless run) on a desk served by `deskarm serve` on another "
+                        "machine, e.g. tcp/192.168.1.20:7447")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -90,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
         event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
-        markers=args.markers,
+        markers=args.markers, remote=args.remote,
     )
     try:
         options.validate()

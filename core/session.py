@@ -52,6 +52,9 @@ class SessionOptions:
     rig_offset: Optional[tuple[float, float, float, float, float, float]] = None
     hand_eye: Optional[str] = None  # camera→robot TOML; default: the saved one when it is for this pair
     markers: Optional[str] = None  # markers TOML (dictionary, ids, names, actions); default: the config folder's
+    # a desk served by `deskarm serve` on another machine (Zenoh endpoint, e.g. tcp/192.168.1.20:7447):
+    # its cameras and arm replace --camera and --bridge
+    remote: Optional[str] = None
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
@@ -64,6 +67,12 @@ class SessionOptions:
         load_profile(self.robot)  # raises ProfileError naming the valid profiles
         if self.markers:
             load_markers(self.markers)  # raises MarkersError naming the file and the key
+        if self.remote is not None:
+            from core.remote.link import check_endpoint
+
+            check_endpoint(self.remote)  # ValueError with an example
+            if self.simulated_clock:
+                raise ValueError("--remote runs at the served desk's pace: it cannot run on a simulated clock (--fast)")
 
 
 @dataclass
@@ -95,8 +104,15 @@ class DeskSession:
         kinematics = build_kinematics(profile)
         # the simulated desk stands in for missing cameras only when the arm is simulated too
         simulated_arm = parse_bridge_url(options.bridge) == "sim"
-        camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps,
-                                     fallback_to_sim=simulated_arm)
+        remote_bridge = None
+        if options.remote:  # another machine's cameras and arm; never the simulated desk instead
+            from core.remote.desk import open_remote_desk
+
+            camera, remote_bridge = open_remote_desk(options.remote, profile, clock=clock)
+            banner = f"REMOTE — {options.remote}"
+        else:
+            camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps,
+                                         fallback_to_sim=simulated_arm)
         banners = [banner] if banner else []
         if getattr(camera, "kind", "") == "replay":
             if not simulated_arm:  # a recorded scene never drives a real arm
@@ -104,7 +120,10 @@ class DeskSession:
                 raise ValueError(f"--camera {options.camera}: a recording drives only the simulated arm (--bridge "
                                  "sim://) — a real arm would reach for objects that are not on the desk")
             banners += list(camera.recording.compatibility_warnings(options.robot)) + list(camera.warnings)
-        calibration, note = load_session_calibration(camera, options.calibration)
+        if options.remote and not options.calibration:  # the served camera_info pair
+            calibration, note = camera.calibration(), ""
+        else:
+            calibration, note = load_session_calibration(camera, options.calibration)
         if note:
             banners.append(note)
         offset = tuple(options.rig_offset) if options.rig_offset is not None else None
@@ -119,7 +138,11 @@ class DeskSession:
                 camera.set_tool_marker(tool_marker)
             except ValueError as exc:
                 banners.append(f"simulated tool marker not drawn: {exc}")
-        base_T_camera, hand_eye, state, note = resolve_base_T_camera(camera, options.hand_eye)
+        if options.remote and not options.hand_eye:  # the server's /tf_static (its own hand-eye)
+            base_T_camera, hand_eye, state, note = (camera.base_T_camera(), None,
+                                                    f"camera→robot: as served by {options.remote}", "")
+        else:
+            base_T_camera, hand_eye, state, note = resolve_base_T_camera(camera, options.hand_eye)
         if note:
             banners.append(note)
         markers, note = markers_for_session(options.markers)
@@ -131,7 +154,7 @@ class DeskSession:
         targeter = Targeter(clock, mode=mode, follow_id=ids[0], cup_ids=ids[:2],
                             lissajous=lissajous_for(profile, kinematics))
         controller = ArmController(profile, kinematics)
-        bridge = open_bridge(options.bridge, profile, clock=clock)
+        bridge = remote_bridge or open_bridge(options.bridge, profile, clock=clock)
         return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
                    controller, bridge, banners, hand_eye=hand_eye, camera_to_robot=state, tool_marker=tool_marker,
                    markers=markers)
