@@ -185,7 +185,8 @@ def test_remote_session_finds_the_served_markers_with_local_perception(remote_se
     client = s.camera.desk.client
     for _ in range(60):  # frames, until one whose markers the server published too
         frame = s.camera.read()
-        assert frame is not None, f"no frame: {s.camera.status_message}"
+        if frame is None:  # no pair within 0.25 s (a loaded machine): read again
+            continue
         served = client.wait_for("/deskarm/markers", lambda r: r.msg.markers and ros.stamp_s(
             r.msg.markers[0].header.stamp) == s.camera.last_stamp_wall, timeout=1.0)
         result = s.perception.process(frame)
@@ -193,7 +194,7 @@ def test_remote_session_finds_the_served_markers_with_local_perception(remote_se
         if served is not None and found:
             break
     else:
-        pytest.fail("no frame with markers found here and by the server")
+        pytest.fail(f"no frame with markers found here and by the server ({s.camera.status_message})")
     assert frame.left.shape == (s.calibration.image_size[1], s.calibration.image_size[0], 3)
     assert frame.t <= s.clock.now()
     theirs = ros.markers_of(served.msg)
