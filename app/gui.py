@@ -449,7 +449,8 @@ class MainWindow(QtWidgets.QMainWindow):
         layout.addWidget(self.calibration_label)
         self.camera_panel: Optional[CameraSettingsPanel] = None
         self.device_panel: Optional[DeviceControlsPanel] = None
-        if self.session.is_simulated_camera:
+        if self.session.is_simulated_camera or self.session.camera.kind == "remote":
+            # the simulated desk's four controls (sent to the serving machine's cameras when remote)
             self.camera_panel = CameraSettingsPanel()
             self.camera_panel.sigSettingsChanged.connect(self.on_camera_settings)
             layout.addWidget(self.camera_panel)

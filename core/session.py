@@ -188,6 +188,9 @@ class DeskSession:
             simulated_arm = parse_bridge_url(bridge_url) == "sim"
         except ValueError:
             return ""  # not a bridge URL at all: open_bridge says so
+        if getattr(self.camera, "kind", "") == "remote":
+            return (f"{bridge_url}: not connected — this window shows a desk served by another machine; its arm "
+                    "is driven there. Connect an arm to the serving machine (deskarm serve --bridge …)")
         if not simulated_arm and getattr(self.camera, "kind", "") == "replay":
             return (f"{bridge_url}: not connected — the views replay a recording; a real arm would reach for "
                     "objects that are not on the desk. Restart without --camera replay:… to drive it")

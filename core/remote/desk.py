@@ -233,6 +233,15 @@ class RemoteStereoCamera(CameraSource):
     def name(self) -> str:
         return f"remote: {self.desk.endpoint}"
 
+    def set_settings(self, settings) -> None:
+        """Exposure, gain, brightness, contrast: sent to the serving machine's cameras."""
+        super().set_settings(settings)
+        client = getattr(self.desk, "client", None)
+        if client is not None:
+            from dataclasses import asdict
+
+            client.send_settings({"camera": asdict(settings)})
+
     @property
     def pair_id(self) -> str:
         return f"remote:{self.desk.endpoint}"

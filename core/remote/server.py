@@ -40,6 +40,7 @@ import numpy as np
 
 from core.devices.bridge import BridgeError
 from core.devices.reconnect import Reconnector
+from core.settings import CameraSettings
 from core.messages import (
     FRAME_CAMERA_LEFT,
     FRAME_CAMERA_RIGHT,
@@ -54,7 +55,7 @@ LINK_TIMEOUT_S = 0.5  # heartbeat gap after which the link counts as lost
 LINK_LOST = "remote link lost"  # the controller's pause reason
 STATUS_PERIOD_S = 0.5  # /deskarm/session and /deskarm/estop at least this often
 TF_STATIC_PERIOD_S = 1.0  # /tf_static again for late joiners (Zenoh has no latched topics here)
-SETTINGS_KEYS = ("mode", "follow_id", "lissajous_running")
+SETTINGS_KEYS = ("mode", "follow_id", "lissajous_running", "camera")
 
 
 @dataclass
@@ -282,6 +283,10 @@ class DeskServer:
                     s.targeter.set_follow_id(int(value))
                 elif key == "lissajous_running":
                     s.targeter.set_lissajous_running(bool(value))
+                elif key == "camera":  # exposure, gain, brightness, contrast (CameraSettings fields)
+                    if not isinstance(value, dict):
+                        raise ValueError("expected an object of camera settings")
+                    s.camera.set_settings(CameraSettings(**value))
                 else:
                     raise ValueError(f"unknown key; valid: {', '.join(SETTINGS_KEYS)}")
             except (ValueError, TypeError) as exc:
@@ -414,6 +419,7 @@ class DeskServer:
             "link": "lost" if self._link_lost else ("ok" if self._last_heartbeat is not None else "no client"),
             "clients": sorted(self._clients), "note": c.note, "frames": self.stats.frames,
             "bridge_connected": s.bridge.is_connected, "refused": self.stats.refused[-5:],
+            "camera_settings": _settings_dict(s.camera),
         }
 
     def _publish_status(self) -> None:
@@ -443,3 +449,11 @@ class DeskServer:
         flags = (" E-STOP" if self.estopped else "") + (f" paused: {', '.join(sorted(c.paused_by))}" if c.paused else "")
         return (f"frames={st.frames} commands={st.commands_sent} published={st.published} "
                 f"publish={p50:.2f}ms clients={len(self._clients)} link={self.session_status()['link']}{flags}")
+
+
+def _settings_dict(camera) -> dict:
+    """The served camera's image settings (exposure, gain, brightness, contrast) for the status."""
+    from dataclasses import asdict, is_dataclass
+
+    settings = getattr(camera, "settings", None)
+    return asdict(settings) if is_dataclass(settings) else {}

@@ -283,3 +283,16 @@ def test_window_on_a_remote_desk_shows_frames_and_stop_reaches_the_server(qtbot,
         estop_echo(observer, False, after=before)
     finally:
         w.stop()
+
+
+def test_camera_settings_and_a_bridge_switch_while_remote(remote_session, observer):
+    from core.settings import CameraSettings
+
+    s = remote_session
+    s.camera.set_settings(CameraSettings(gain=6.0, exposure=0.5))  # the window's camera sliders
+    r = observer.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("camera_settings", {})
+                          .get("gain") == 6.0, timeout=WAIT)
+    assert r is not None, observer.session()
+    # the arm is on the serving machine: the window never swaps in a local bridge
+    assert "served by another machine" in s.real_arm_refusal("sim://")
+    assert "served by another machine" in s.real_arm_refusal("v2:/dev/ttyACM0")
