@@ -27,19 +27,22 @@ import numpy as np
 
 from core.messages import GroundTruth, ObjectTruth
 
-LEFT_IMAGE = "/deskarm/camera/left/image/compressed"
-RIGHT_IMAGE = "/deskarm/camera/right/image/compressed"
-LEFT_INFO = "/deskarm/camera/left/camera_info"
-RIGHT_INFO = "/deskarm/camera/right/camera_info"
-JOINTS_COMMANDED = "/deskarm/joint_states/commanded"
-JOINTS_MEASURED = "/deskarm/joint_states/measured"
-TF_STATIC = "/tf_static"
-TF = "/tf"
-MARKERS = "/deskarm/markers"
-TRUTH_MARKERS = "/deskarm/truth/markers"
-GOAL = "/deskarm/goal"
-ESTOP = "/deskarm/estop"
-SESSION = "/deskarm/session"
+# the topic contract lives in core.record.topics (the recorder writes what this reads)
+from core.record.topics import CAMERA_LEFT_IMAGE as LEFT_IMAGE  # noqa: E402
+from core.record.topics import CAMERA_LEFT_INFO as LEFT_INFO  # noqa: E402
+from core.record.topics import CAMERA_RIGHT_IMAGE as RIGHT_IMAGE  # noqa: E402
+from core.record.topics import CAMERA_RIGHT_INFO as RIGHT_INFO  # noqa: E402
+from core.record.topics import (  # noqa: E402
+    ESTOP,
+    GOAL,
+    JOINTS_COMMANDED,
+    JOINTS_MEASURED,
+    MARKERS,
+    SESSION,
+    TF,
+    TF_STATIC,
+    TRUTH_MARKERS,
+)
 IMAGE_TOPICS = (LEFT_IMAGE, RIGHT_IMAGE)
 # everything but the images: read once at open and kept
 SMALL_TOPICS = (LEFT_INFO, RIGHT_INFO, JOINTS_COMMANDED, JOINTS_MEASURED, TF_STATIC, TF, MARKERS,

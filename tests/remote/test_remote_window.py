@@ -8,19 +8,13 @@ from __future__ import annotations
 import io
 import json
 import math
-import os
-import queue
-import signal
-import socket
-import subprocess
-import sys
-import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from core.remote import ros
+from serving import free_port, served_desk, zenoh_loopback_problem
 from core.remote.link import LinkOptions
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,65 +23,14 @@ MEASURED = "/deskarm/joint_states/measured"
 WAIT = 10.0  # s: generous for a loaded 2-core machine; a pass takes milliseconds
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def zenoh_loopback_problem() -> str:
-    """"" when Zenoh opens a listening session on loopback here, else why not."""
-    try:
-        import zenoh  # noqa: F401
-
-        from core.remote.link import open_session
-
-        session = open_session(LinkOptions(listen=(f"tcp/127.0.0.1:{free_port()}",), scouting=False))
-        session.close()
-        return ""
-    except Exception as exc:  # ImportError, LinkError: the reason is the skip message
-        return f"zenoh cannot open a loopback session on this machine: {exc}"
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    """`python -m app.cli serve --camera sim` on a free loopback port (scouting off); its endpoint."""
+    """`deskarm serve --camera sim --scenario static` on a free loopback port (scouting off); its endpoint."""
     problem = zenoh_loopback_problem()
     if problem:
         pytest.skip(problem)
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    env = dict(os.environ, DESKARM_HOME=str(tmp_path_factory.mktemp("serve_home")), PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--camera", "sim", "--scenario", "static",
-         "--listen", endpoint, "--no-scouting"],
-        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines: queue.Queue = queue.Queue()
-    output: list[str] = []
-
-    def pump():
-        for line in proc.stdout:
-            output.append(line)
-            lines.put(line)
-        lines.put(None)
-
-    threading.Thread(target=pump, daemon=True).start()
-    try:
-        while True:
-            line = lines.get(timeout=30)
-            assert line is not None, "deskarm serve exited early:\n" + "".join(output)
-            if "Ctrl+C stops" in line:
-                break
+    with served_desk(tmp_path_factory.mktemp("serve_home"), "static") as endpoint:
         yield endpoint
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-        try:
-            rc = proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-            raise AssertionError("deskarm serve did not stop on Ctrl+C (SIGINT):\n" + "".join(output))
-    assert rc == 0, f"deskarm serve exit code {rc}:\n" + "".join(output)
 
 
 @pytest.fixture
