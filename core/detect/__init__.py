@@ -1,0 +1,1 @@
+"""Detectors beyond markers: colour, circles, a learned detector, trackers and filtering (in progress)."""
