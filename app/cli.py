@@ -71,6 +71,7 @@ SUBCOMMANDS = {
     "bench-ik": "app.cli_kinematics",
     "calibrate-hand-eye": "app.cli_handeye",
     "serve": "app.cli_serve",
+    "detect": "app.cli_detect",
 }
 
 

@@ -1,0 +1,231 @@
+"""Colour blobs: named HSV ranges, morphology, connected outlines, largest first.
+
+Hue is OpenCV's 0 … 179 (degrees / 2), saturation and value 0 … 255. A range whose ``h_lo`` is
+greater than its ``h_hi`` wraps around 0 (red: 170 … 179 and 0 … 8).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import cv2
+import numpy as np
+
+from core.detect.base import BaseDetector, Detection, check_image, options_factory
+from core.settings import SettingsError, check_range
+
+HUE_MAX = 179  # OpenCV 8-bit hue: 0 … 179
+
+
+@dataclass(frozen=True)
+class HsvRange:
+    """A named colour: an HSV box (hue wraps around 0 when ``h_lo > h_hi``)."""
+
+    name: str  # what detections of this colour are labelled, e.g. "red"
+    h_lo: int  # hue low, 0 … 179
+    s_lo: int  # saturation low, 0 … 255
+    v_lo: int  # value low, 0 … 255
+    h_hi: int  # hue high, 0 … 179 (below h_lo: the range wraps through 0)
+    s_hi: int = 255  # saturation high, s_lo … 255
+    v_hi: int = 255  # value high, v_lo … 255
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip() or any(c in self.name for c in "=,"):
+            raise SettingsError(f"colour.name = {self.name!r} must be a non-empty name without '=' or ','")
+        for field, hi in (("h_lo", HUE_MAX), ("h_hi", HUE_MAX), ("s_lo", 255), ("s_hi", 255), ("v_lo", 255), ("v_hi", 255)):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise SettingsError(f"colour {self.name}.{field} = {value!r} must be a whole number 0…{hi}")
+            check_range(f"colour {self.name}", field, int(value), 0, hi)
+            object.__setattr__(self, field, int(value))
+        if self.s_lo > self.s_hi:
+            raise SettingsError(f"colour {self.name}: s_lo = {self.s_lo} is above s_hi = {self.s_hi}")
+        if self.v_lo > self.v_hi:
+            raise SettingsError(f"colour {self.name}: v_lo = {self.v_lo} is above v_hi = {self.v_hi}")
+
+    @property
+    def wraps(self) -> bool:
+        """True when the hue range passes through 0 (h_lo > h_hi), as red's does."""
+        return self.h_lo > self.h_hi
+
+    def mask(self, hsv: np.ndarray) -> np.ndarray:
+        """255 where an HSV image (OpenCV 8-bit) lies in this range, else 0."""
+        if not self.wraps:
+            return cv2.inRange(hsv, (self.h_lo, self.s_lo, self.v_lo), (self.h_hi, self.s_hi, self.v_hi))
+        return cv2.inRange(hsv, (self.h_lo, self.s_lo, self.v_lo), (HUE_MAX, self.s_hi, self.v_hi)) | \
+            cv2.inRange(hsv, (0, self.s_lo, self.v_lo), (self.h_hi, self.s_hi, self.v_hi))
+
+    def text(self) -> str:
+        """``NAME=HLO,SLO,VLO,HHI,SHI,VHI`` (what ``parse_hsv_range`` reads)."""
+        return f"{self.name}={self.h_lo},{self.s_lo},{self.v_lo},{self.h_hi},{self.s_hi},{self.v_hi}"
+
+
+def parse_hsv_range(text: str) -> HsvRange:
+    """``"red=170,120,70,8,255,255"`` (NAME=HLO,SLO,VLO,HHI,SHI,VHI) -> HsvRange; ValueError otherwise."""
+    name, sep, values = str(text).partition("=")
+    parts = [p.strip() for p in values.split(",")]
+    if not sep or not name.strip() or len(parts) != 6:
+        raise ValueError(f"colour {text!r} is not NAME=HLO,SLO,VLO,HHI,SHI,VHI, e.g. red=170,120,70,8,255,255")
+    try:
+        numbers = [int(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"colour {text!r}: the six values must be whole numbers (hue 0…179, S and V 0…255)") from None
+    h_lo, s_lo, v_lo, h_hi, s_hi, v_hi = numbers
+    return HsvRange(name.strip(), h_lo, s_lo, v_lo, h_hi, s_hi, v_hi)
+
+
+# Defaults for saturated, reasonably lit objects. Red is BallFinder's (core.motion.targeting).
+DEFAULT_COLOURS = (
+    HsvRange("red", 172, 120, 70, 8),
+    HsvRange("yellow", 22, 120, 100, 34),
+    HsvRange("green", 40, 80, 50, 85),
+    HsvRange("blue", 95, 120, 50, 130),
+)
+
+
+@dataclass(frozen=True)
+class HsvParams:
+    """Settings of ``HsvDetector``."""
+
+    colours: tuple[HsvRange, ...] = DEFAULT_COLOURS  # named colours to look for, ≥ 1, unique names
+    open_px: int = 3  # opening kernel (ellipse) against speckles, px, 0 (off) … 31
+    close_px: int = 5  # closing kernel (ellipse) filling holes and highlights, px, 0 (off) … 31
+    min_area_px: float = 30.0  # smallest blob kept, px², 0 … 10_000_000
+    max_objects: int = 10  # most blobs reported per colour (largest first), 1 … 1000
+
+    def __post_init__(self) -> None:
+        colours = tuple(self.colours) if not isinstance(self.colours, HsvRange) else (self.colours,)
+        if not colours:
+            raise SettingsError("hsv.colours is empty: give at least one colour (NAME=HLO,SLO,VLO,HHI,SHI,VHI)")
+        for c in colours:
+            if not isinstance(c, HsvRange):
+                raise SettingsError(f"hsv.colours must hold HsvRange values, not {type(c).__name__}")
+        names = [c.name for c in colours]
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        if dupes:
+            raise SettingsError(f"hsv.colours names {', '.join(dupes)} more than once: names must be unique")
+        object.__setattr__(self, "colours", colours)
+        for field, hi in (("open_px", 31), ("close_px", 31), ("max_objects", 1000)):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise SettingsError(f"hsv.{field} = {value!r} must be a whole number")
+        check_range("hsv", "open_px", self.open_px, 0, 31)
+        check_range("hsv", "close_px", self.close_px, 0, 31)
+        check_range("hsv", "min_area_px", self.min_area_px, 0.0, 10_000_000.0)
+        check_range("hsv", "max_objects", self.max_objects, 1, 1000)
+
+
+def _kernel(size: int) -> Optional[np.ndarray]:
+    return None if size <= 1 else cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+
+
+class HsvDetector(BaseDetector):
+    """Blobs of named HSV colours, largest first (across colours), at most ``max_objects`` per colour.
+
+    Each detection carries its outline (``contour``), bounding box, centroid (image moments of
+    the outline) and the radius of its enclosing circle. ``score`` is the blob's solidity (area
+    / convex-hull area): 1 for a disc or a square, lower for ragged or stringy blobs.
+    """
+
+    name = "hsv"
+    params_type = HsvParams
+
+    def __init__(self, params: Optional[HsvParams] = None):
+        super().__init__(params)
+        p = self._params
+        self._open = _kernel(p.open_px)
+        self._close = _kernel(p.close_px)
+
+    def masks(self, image_bgr: np.ndarray) -> dict[str, np.ndarray]:
+        """Each colour's cleaned mask (after opening and closing) of a whole image, by name."""
+        image = check_image(image_bgr)
+        if image.ndim == 2:
+            image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+        hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+        out = {}
+        for colour in self._params.colours:
+            mask = colour.mask(hsv)
+            if self._open is not None:
+                mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._open)
+            if self._close is not None:
+                mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._close)
+            out[colour.name] = mask
+        return out
+
+    def _detect(self, image: np.ndarray) -> list[Detection]:
+        p = self._params
+        found: list[tuple[float, Detection]] = []
+        for name, mask in self.masks(image).items():
+            contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+            blobs = []
+            for contour in contours:
+                m = cv2.moments(contour)
+                area = m["m00"]
+                if area <= 0.0 or area < p.min_area_px:
+                    continue
+                blobs.append((area, m, contour))
+            blobs.sort(key=lambda b: -b[0])
+            for area, m, contour in blobs[: p.max_objects]:
+                pts = contour.reshape(-1, 2).astype(np.float64)
+                hull_area = cv2.contourArea(cv2.convexHull(contour))
+                (_, _), radius = cv2.minEnclosingCircle(contour)
+                x, y, w, h = cv2.boundingRect(contour)
+                found.append((area, Detection(
+                    kind="colour", label=name,
+                    score=min(1.0, area / hull_area) if hull_area > 0 else 0.0,
+                    box=(x, y, w, h), centre_px=(m["m10"] / area, m["m01"] / area),
+                    radius_px=radius, contour=pts,
+                )))
+        found.sort(key=lambda f: -f[0])
+        return [d for _, d in found]
+
+
+def _circular_median_hue(h: np.ndarray) -> float:
+    """Median of hues (0 … 179) taken around their circular mean, so red near 0/179 works."""
+    angles = h.astype(np.float64) * (2.0 * math.pi / 180.0)
+    mean = math.atan2(np.sin(angles).mean(), np.cos(angles).mean()) * 180.0 / (2.0 * math.pi)
+    diffs = (h.astype(np.float64) - mean + 90.0) % 180.0 - 90.0
+    return float((mean + np.median(diffs)) % 180.0)
+
+
+def colour_from_pixel(image_bgr: np.ndarray, x: float, y: float, tolerance: int = 10,
+                      name: str = "picked", patch_px: int = 2) -> HsvRange:
+    """The colour of the object at pixel (x, y): a range around the median HSV of a small patch.
+
+    The patch is (2 · ``patch_px`` + 1)² pixels (clipped to the image). The range is hue ±
+    ``tolerance`` (wrapping through 0 for red), saturation from half the picked value up and value
+    from 40 % of the picked value up, so the shaded side of a lit object still matches.
+    A nearly grey pick (saturation < 40) has no meaningful hue: any hue, saturation up to
+    picked + 40, value ± 4 · ``tolerance``. ValueError for a pixel outside the image.
+    """
+    image = check_image(image_bgr)
+    if image.ndim == 2:
+        image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    check_range("colour_from_pixel", "tolerance", tolerance, 1, 89)
+    H, W = image.shape[:2]
+    xi, yi = int(round(x)), int(round(y))
+    if not (0 <= xi < W and 0 <= yi < H):
+        raise ValueError(f"pixel ({x}, {y}) is outside the {W}x{H} image")
+    r = max(0, int(patch_px))
+    patch = image[max(0, yi - r):yi + r + 1, max(0, xi - r):xi + r + 1]
+    hsv = cv2.cvtColor(patch, cv2.COLOR_BGR2HSV).reshape(-1, 3)
+    s = float(np.median(hsv[:, 1]))
+    v = float(np.median(hsv[:, 2]))
+    tol = int(tolerance)
+    if s < 40:
+        return HsvRange(name, 0, 0, int(max(0, v - 4 * tol)), HUE_MAX,
+                        int(min(255, s + 40)), int(min(255, v + 4 * tol)))
+    h = _circular_median_hue(hsv[:, 0])
+    h_lo = int(round(h - tol)) % 180
+    h_hi = int(round(h + tol)) % 180
+    return HsvRange(name, h_lo, int(s * 0.5), int(v * 0.4), h_hi, 255, 255)
+
+
+def make_hsv(**options) -> HsvDetector:
+    """Registry factory: ``HsvDetector(HsvParams(**options))`` (``colours`` may be texts "NAME=…")."""
+    if "colours" in options:
+        colours = options["colours"]
+        colours = (colours,) if isinstance(colours, (str, HsvRange)) else tuple(colours)
+        options["colours"] = tuple(parse_hsv_range(c) if isinstance(c, str) else c for c in colours)
+    return options_factory(HsvDetector, HsvParams, "hsv")(**options)
