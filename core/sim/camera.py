@@ -6,6 +6,11 @@ pipeline's critical path and not in its latency. On a simulated clock (``--fast`
 are rendered in ``read``. When nothing in the scene moved (scene state, arm, camera settings)
 the previous images are delivered again, flagged ``repeated``, and nothing is rendered.
 
+``skew_s`` imitates two webcams that are not triggered together: the right view shows the scene
+``skew_s`` later than the left one (the frame's ``t`` is the left view's time, its ``skew_s`` field
+says how much later the right view is, as for real webcams where ``t = min(t_left, t_right)``).
+With 0 (the default) both views show the same instant, exactly as before.
+
 ``show_board`` puts a calibration board in front of the cameras (while the calibration wizard is
 open): painted over the desk, held still at each of BOARD_POSES varied poses for BOARD_HOLD_S of
 the camera's clock, then moved to the next, so the wizard can capture it like a real one.
@@ -36,6 +41,7 @@ RENDER_MARGIN_S = 0.003  # a render starts this much earlier than the slowest re
 BOARD_POSES = 20  # poses a shown calibration board goes through (then round again)
 BOARD_HOLD_S = 1.5  # each pose is held still this long (camera clock): the wizard's gate needs still frames
 BOARD_SEED = 11  # seed of the shown board's poses (held_board_poses): the same poses every time
+MAX_SKEW_S = 0.5  # the right view may lag the left one by 0…this (s)
 
 _SIM_CONTROLS = (  # name, label, min, max, step (CameraSettings fields)
     ("exposure", "Exposure (EV)", -4.0, 4.0, 0.1),
@@ -71,10 +77,11 @@ class SimStereoCamera(ClockPacedSource):
     kind = "sim"
 
     def __init__(self, scenario: str = "static", fps: float = 30.0, clock=None, seed: int = 0,
-                 marker_ids=(23, 50), rig=None, **desk_options):
+                 marker_ids=(23, 50), rig=None, skew_s: float = 0.0, **desk_options):
         super().__init__(clock)
         if not (1.0 <= fps <= 240.0):
             raise ValueError(f"camera fps = {fps} is outside 1…240")
+        self._skew_s = _check_skew(skew_s)
         self.rig = rig or SimRig()
         self.desk = SimDesk(self.rig, scenario=scenario, marker_ids=marker_ids, seed=seed, **desk_options)
         self.scenario = scenario
@@ -105,6 +112,16 @@ class SimStereoCamera(ClockPacedSource):
     @property
     def name(self) -> str:
         return f"simulated desk ({self.scenario})"
+
+    @property
+    def skew_s(self) -> float:
+        """How much later (s) the right view shows the scene than the left one (0: together)."""
+        return self._skew_s
+
+    @skew_s.setter
+    def skew_s(self, value: float) -> None:
+        """Any thread; from the next frame on. ValueError outside 0…MAX_SKEW_S."""
+        self._skew_s = _check_skew(value)
 
     @property
     def pair_id(self) -> str:
@@ -193,7 +210,17 @@ class SimStereoCamera(ClockPacedSource):
         with self._lock:
             arm = self._arm_points
             shown = self._board
+        skew = frame_skew = self._skew_s  # read once: a setter in another thread takes the next frame
+        if skew:
+            # the right view's instant: when the scene there is the left's (nothing moved in
+            # between) the pair is that of an unskewed camera, else the right view is rendered again
+            ts = t - self._t0
+            moved = self.desk.scene_key(ts, arm) != self.desk.scene_key(ts + skew, arm)
+            if not moved:
+                skew = 0.0
         desk_key = self.desk.scene_key(t - self._t0, arm) if self.repeat_unchanged else None
+        if skew and desk_key is not None:
+            desk_key = (desk_key, "right at", self.desk.scene_key(t - self._t0 + skew, arm))
         board_key = None if shown is None else (shown.serial, shown.index_at(t))
         key = desk_key if board_key is None or desk_key is None else (desk_key, board_key)
         if key is not None and key == self._last_key and self._last_render is not None:
@@ -201,7 +228,8 @@ class SimStereoCamera(ClockPacedSource):
             # reuses its answer and the views skip the redraw
             left, right, truth = self._last_render
             self.frames_repeated += 1
-            return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth, repeated=True)
+            return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth, repeated=True,
+                               skew_s=frame_skew)
         w0 = time.perf_counter()
         if desk_key is not None and desk_key == self._desk_key and self._desk_render is not None:
             # only the board moved (or went away): the desk's own images, as a camera without a
@@ -209,6 +237,8 @@ class SimStereoCamera(ClockPacedSource):
             left, right, truth = self._desk_render
         else:
             left, right, truth = self.desk.render(t - self._t0, arm)
+            if skew:  # the right view of the scene skew later (truth stays the left view's instant)
+                right = self.desk.render(t - self._t0 + skew, arm)[1]
             left.flags.writeable = right.flags.writeable = False  # they may be delivered again
             self._desk_key, self._desk_render = desk_key, (left, right, truth)
             self.frames_rendered += 1
@@ -216,7 +246,7 @@ class SimStereoCamera(ClockPacedSource):
             left, right = self._paint_board(shown, board_key[1], left, right)
         self._render_s.append(time.perf_counter() - w0)
         self._last_key, self._last_render = key, (left, right, truth)
-        return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth)
+        return StereoFrame(seq=self._seq.next(), t=t, left=left, right=right, truth=truth, skew_s=frame_skew)
 
     def _paint_board(self, shown: _ShownBoard, k: int, left: np.ndarray, right: np.ndarray):
         """Copies of the desk images with the shown board at pose ``k`` painted over them."""
@@ -331,6 +361,13 @@ class SimStereoCamera(ClockPacedSource):
         with self._lock:
             self.desk.set_tool_marker(marker)
             self._last_key = self._last_render = None
+
+
+def _check_skew(value) -> float:
+    skew = float(value)
+    if not (0.0 <= skew <= MAX_SKEW_S):  # also NaN
+        raise ValueError(f"skew_s = {value} is outside 0…{MAX_SKEW_S} s (the right view lags the left)")
+    return skew
 
 
 @dataclass(frozen=True)
