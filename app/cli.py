@@ -35,6 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="camera→robot calibration TOML (default: the saved one, when it is for these cameras)")
     p.add_argument("--rig-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
                    help="simulated desk: the rig is mounted this far off its nominal pose (m, degrees)")
+    p.add_argument("--sim-skew-ms", type=float, default=0.0, metavar="N",
+                   help="simulated desk: the right camera's frame is captured N ms after the left one "
+                        "(unsynchronised webcams)")
     p.add_argument("--remote", default=None, metavar="ENDPOINT",
                    help="open the window (or headless run) on a desk served by `deskarm serve` on another "
                         "machine, e.g. tcp/192.168.1.20:7447")
@@ -94,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
         event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
-        markers=args.markers, remote=args.remote,
+        markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms,
     )
     try:
         options.validate()

@@ -32,7 +32,8 @@ from core.vision.cameras import CameraSource, open_camera, parse_camera_spec
 from core.vision.markers import MarkersConfig, load_markers, markers_for_session
 from core.vision.perception import StereoMarkerPerception
 
-SCENARIOS = ("static", "cups", "wander")
+SCENARIOS = ("static", "cups", "wander", "objects")
+MAX_SIM_SKEW_MS = 100.0  # --sim-skew-ms: 0…this
 
 
 @dataclass
@@ -42,7 +43,7 @@ class SessionOptions:
     camera: str = "auto"  # auto | sim | IDX,IDX
     bridge: str = "sim://"  # sim:// | serial port | loop://
     robot: str = "desk_rrr"  # profile name or path
-    scenario: str = "static"  # static | cups | wander (simulated desk)
+    scenario: str = "static"  # static | cups | wander | objects (simulated desk)
     fps: float = 30.0  # camera frame rate
     simulated_clock: bool = False  # headless --fast: run on a simulated clock
     marker_ids: tuple[int, ...] = (23, 50)
@@ -55,6 +56,8 @@ class SessionOptions:
     # a desk served by `deskarm serve` on another machine (Zenoh endpoint, e.g. tcp/192.168.1.20:7447):
     # its cameras and arm replace --camera and --bridge
     remote: Optional[str] = None
+    # simulated desk only: the right view is captured this much later than the left (ms, 0…100)
+    sim_skew_ms: float = 0.0
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
@@ -64,6 +67,8 @@ class SessionOptions:
         parse_bridge_url(self.bridge)
         if self.scenario not in SCENARIOS:
             raise ValueError(f"unknown --scenario value {self.scenario!r}; valid: {', '.join(SCENARIOS)}")
+        if not (isinstance(self.sim_skew_ms, (int, float)) and 0.0 <= self.sim_skew_ms <= MAX_SIM_SKEW_MS):
+            raise ValueError(f"--sim-skew-ms {self.sim_skew_ms!r} is outside 0…{MAX_SIM_SKEW_MS:g} ms")
         load_profile(self.robot)  # raises ProfileError naming the valid profiles
         if self.markers:
             load_markers(self.markers)  # raises MarkersError naming the file and the key
@@ -132,6 +137,11 @@ class DeskSession:
                 camera.set_rig_offset(offset)
             else:
                 banners.append(f"--rig-offset only moves the simulated desk's rig; {camera.name} ignores it")
+        if options.sim_skew_ms:
+            if getattr(camera, "kind", "") == "sim":
+                camera.skew_s = options.sim_skew_ms / 1000.0
+            else:
+                banners.append(f"--sim-skew-ms only delays the simulated desk's right view; {camera.name} ignores it")
         tool_marker = tool_marker_of(profile)
         if hasattr(camera, "set_tool_marker"):
             try:  # the simulated arm carries the tool marker

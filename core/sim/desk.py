@@ -1,8 +1,9 @@
 """The simulated desk: renders what the simulated stereo rig sees, with exact ground truth.
 
 A wood-textured desk (warped once per camera and cached), ArUco markers lying on it or on
-upside-down cups, a ball, a passing hand and the arm drawn from its chain points — painted far to
-near — then the camera's image controls (one LUT), lens blur and sensor noise.
+upside-down cups, a ball, marker-less things (shaded balls, a plush, discs, cups), a passing hand
+and the arm drawn from its chain points — painted far to near — then the camera's image controls
+(one LUT), lens blur and sensor noise.
 
 Geometry is exact: a marker corner at robot_base point P lands at ``rig.project(side, P)``
 (OpenCV's pixel-centre convention, pixel (0, 0) centred at 0.0). Markers are warped from a
@@ -39,6 +40,7 @@ from core.sim.scenarios import (
     Cup,
     Hand,
     SceneState,
+    Thing,
     make_scenario,
     scenario_names,
 )
@@ -74,6 +76,9 @@ CUP_TOP_COLOUR = (195, 130, 70)
 CUP_STRIPS = 36
 CUP_SHADE_LEVELS = 24  # shading steps across a cup's side (runs of strips share one)
 BALL_COLOUR = (38, 38, 205)  # BGR, red
+BALL_HIGHLIGHT = (170, 170, 245)  # the red ball's specular spot
+HIGHLIGHT_MIX = 0.6  # other things' specular spot: this far from their colour towards white
+PLUSH_GLOSS = 0.35  # the plush's spot is duller (fabric): this far towards white
 ARM_LINK_COLOUR = (178, 180, 184)  # aluminium
 ARM_LINK_HIGHLIGHT = (228, 230, 234)
 ARM_LINK_EDGE = (92, 94, 98)
@@ -220,6 +225,18 @@ def _circle(n: int = 32) -> np.ndarray:
 
 
 _CIRCLE32 = _circle(32)
+
+
+def _unit_sphere(n_lat: int = 10, n_lon: int = 24) -> np.ndarray:
+    """Points (M, 3) on the unit sphere: poles and n_lat rings of n_lon (hulls of their images)."""
+    pts = [(0.0, 0.0, 1.0), (0.0, 0.0, -1.0)]
+    for phi in np.linspace(0.0, math.pi, n_lat + 2)[1:-1]:
+        for a in np.linspace(0.0, 2 * math.pi, n_lon, endpoint=False):
+            pts.append((math.sin(phi) * math.cos(a), math.sin(phi) * math.sin(a), math.cos(phi)))
+    return np.array(pts)
+
+
+_SPHERE = _unit_sphere()
 _CUP_ANGLES = np.linspace(0.0, 2 * math.pi, CUP_STRIPS, endpoint=False)
 
 
@@ -499,22 +516,32 @@ class SimDesk:
                      target_corners=black, flat=True)
 
     def _cup_item(self, view: _View, cup: Cup) -> _Item:
-        rt, rb, hgt = self.cup_top_radius_m, self.cup_rim_radius_m, CUP_HEIGHT_M
+        shapes, lines, depth, _ = self._frustum_parts(view, cup.x, cup.y, cup.lift, CUP_HEIGHT_M,
+                                                      self.cup_top_radius_m, self.cup_rim_radius_m,
+                                                      CUP_COLOUR, CUP_TOP_COLOUR)
+        marker, black, region = self._marker_parts(view, cup, disc=True)
+        return _Item(depth=depth, shapes=shapes, lines=lines, marker=marker,
+                     target=cup.marker_id, target_region=region, target_corners=black)
+
+    def _frustum_parts(self, view: _View, x: float, y: float, z0: float, hgt: float, rt: float, rb: float,
+                       colour, top_colour) -> tuple[list, list, float, np.ndarray]:
+        """(shapes, lines, depth, hull px) of a Lambert-shaded frustum standing at (x, y, z0):
+        bottom radius rb, top radius rt at z0 + hgt (an upside-down cup, a disc, a cylinder)."""
         cs, sn = np.cos(_CUP_ANGLES), np.sin(_CUP_ANGLES)
-        top = np.column_stack([cup.x + rt * cs, cup.y + rt * sn, np.full_like(cs, cup.lift + hgt)])
-        bot = np.column_stack([cup.x + rb * cs, cup.y + rb * sn, np.full_like(cs, cup.lift)])
+        top = np.column_stack([x + rt * cs, y + rt * sn, np.full_like(cs, z0 + hgt)])
+        bot = np.column_stack([x + rb * cs, y + rb * sn, np.full_like(cs, z0)])
         p_top, _ = view.project(top)
         p_bot, _ = view.project(bot)
-        _, depth = view.project(np.array([[cup.x, cup.y, cup.lift + hgt / 2]]))
+        _, depth = view.project(np.array([[x, y, z0 + hgt / 2]]))
         hull = cv2.convexHull(np.vstack([p_top, p_bot]).astype(np.float32))[:, 0, :].astype(np.float64)
-        shapes = [_Shape(hull, _shade(CUP_COLOUR, 0.8))]
+        shapes = [_Shape(hull, _shade(colour, 0.8))]
         # side strips, Lambert-shaded; only those facing the camera
         half = math.pi / CUP_STRIPS
         mid_a = _CUP_ANGLES + half
         normals = np.column_stack([np.cos(mid_a), np.sin(mid_a), np.full_like(mid_a, (rb - rt) / hgt)])
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        mid_pts = np.column_stack([cup.x + (rt + rb) / 2 * np.cos(mid_a), cup.y + (rt + rb) / 2 * np.sin(mid_a),
-                                   np.full_like(mid_a, cup.lift + hgt / 2)])
+        mid_pts = np.column_stack([x + (rt + rb) / 2 * np.cos(mid_a), y + (rt + rb) / 2 * np.sin(mid_a),
+                                   np.full_like(mid_a, z0 + hgt / 2)])
         facing = np.einsum("ij,ij->i", normals, view.cam_pos - mid_pts) > 0
         shade = np.round((AMBIENT + 0.75 * np.clip(normals @ LIGHT, 0.0, 1.0)) * CUP_SHADE_LEVELS)
         # runs of camera-facing strips with the same shade level become one polygon
@@ -529,35 +556,93 @@ class SimDesk:
                 last = (run[-1] + 1) % CUP_STRIPS
                 idx_b = run + [last]
                 poly = np.vstack([p_bot[idx_b], p_top[idx_b[::-1]]])
-                shapes.append(_Shape(poly, _shade(CUP_COLOUR, shade[k] / CUP_SHADE_LEVELS)))
+                shapes.append(_Shape(poly, _shade(colour, shade[k] / CUP_SHADE_LEVELS)))
                 run = []
         lid_light = AMBIENT + 0.75 * float(LIGHT[2])
-        shapes.append(_Shape(p_top, _shade(CUP_TOP_COLOUR, lid_light)))
-        rim_line = (p_bot[np.nonzero(facing)[0]], _shade(CUP_COLOUR, 0.55), False)
-        lines = [(p_top, _shade(CUP_COLOUR, 0.6), True)]
-        if cup.lift > 0.002:
+        shapes.append(_Shape(p_top, _shade(top_colour, lid_light)))
+        rim_line = (p_bot[np.nonzero(facing)[0]], _shade(colour, 0.55), False)
+        lines = [(p_top, _shade(colour, 0.6), True)]
+        if z0 > 0.002:  # a lifted cup shows its rim's edge
             lines.append(rim_line)
-        marker, black, region = self._marker_parts(view, cup, disc=True)
-        return _Item(depth=float(depth[0]), shapes=shapes, lines=lines, marker=marker,
-                     target=cup.marker_id, target_region=region, target_corners=black)
+        return shapes, lines, float(depth[0]), hull
 
-    def _ball_item(self, view: _View, bx: float, by: float) -> _Item:
-        centre3 = np.array([bx, by, BALL_RADIUS_M])
+    def _ball_item(self, view: _View, bx: float, by: float, radius: float = BALL_RADIUS_M,
+                   colour=BALL_COLOUR, highlight=BALL_HIGHLIGHT, target: int = -1) -> _Item:
+        """A shaded sphere lying on the desk (centre ``radius`` above it): the cups game's ball by
+        default. Its silhouette is drawn as the circle of the centre's depth (exact to < 0.1 px
+        at these distances), so the projected centre is the disc's centre."""
+        centre3 = np.array([bx, by, radius])
         c, depth = view.project(centre3[None])
         c, depth = c[0], float(depth[0])
-        r = view.f * BALL_RADIUS_M / depth
+        r = view.f * radius / depth
         to_cam = view.cam_pos - centre3
         to_cam /= np.linalg.norm(to_cam)
         half = LIGHT + to_cam
-        hl, _ = view.project((centre3 + 0.75 * BALL_RADIUS_M * half / np.linalg.norm(half))[None])
+        hl, _ = view.project((centre3 + 0.75 * radius * half / np.linalg.norm(half))[None])
         hl = hl[0]
-        shapes = [_Shape(c + r * _CIRCLE32, _shade(BALL_COLOUR, 0.72))]
+        shapes = [_Shape(c + r * _CIRCLE32, _shade(colour, 0.72))]
         for k, (scale, gain) in enumerate(((0.86, 0.92), (0.66, 1.08), (0.42, 1.22))):
             ck = c + (hl - c) * (1 - scale)
-            shapes.append(_Shape(ck + r * scale * _CIRCLE32, _shade(BALL_COLOUR, gain)))
-        shapes.append(_Shape(hl + r * 0.16 * _CIRCLE32, (170, 170, 245)))
+            shapes.append(_Shape(ck + r * scale * _CIRCLE32, _shade(colour, gain)))
+        shapes.append(_Shape(hl + r * 0.16 * _CIRCLE32, highlight))
         outline = c + r * _CIRCLE32
-        return _Item(depth=depth, shapes=shapes, target=-1, target_region=outline, target_corners=outline)
+        return _Item(depth=depth, shapes=shapes, target=target, target_region=outline, target_corners=outline)
+
+    def _plush_item(self, view: _View, th: Thing) -> _Item:
+        """An ellipsoid lying on the desk (semi-axes: half length along yaw, half height twice),
+        shaded like the balls: hulls of its projected points, shrunk towards the light's spot."""
+        a, b = th.radius_m, th.height_m / 2
+        axes = np.array([a, b, b])
+        c, s = math.cos(th.yaw), math.sin(th.yaw)
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        centre3 = np.array(th.centre)
+        _, depth = view.project(centre3[None])
+        local = _SPHERE * axes  # ellipsoid points, its own frame
+        # the spot where the surface normal halves light and view: normal n ↦ point D² n / |D n|
+        to_cam = view.cam_pos - centre3
+        half = LIGHT + to_cam / np.linalg.norm(to_cam)
+        n_local = R.T @ (half / np.linalg.norm(half))
+        spot_local = axes**2 * n_local / np.linalg.norm(axes * n_local)
+
+        def hull(scale: float, towards: np.ndarray) -> np.ndarray:
+            pts = centre3 + (towards * (1 - scale) + local * scale) @ R.T
+            px, _ = view.project(pts)
+            return cv2.convexHull(px.astype(np.float32))[:, 0, :].astype(np.float64)
+
+        zero = np.zeros(3)
+        outline = hull(1.0, zero)
+        shapes = [_Shape(outline, _shade(th.colour, 0.72))]
+        for scale, gain in ((0.86, 0.92), (0.66, 1.06), (0.42, 1.16)):
+            shapes.append(_Shape(hull(scale, 0.75 * spot_local), _shade(th.colour, gain)))
+        spot = tuple(float(v + PLUSH_GLOSS * (255 - v)) for v in th.colour)
+        shapes.append(_Shape(hull(0.14, 0.9 * spot_local), spot))
+        return _Item(depth=float(depth[0]), shapes=shapes, target=th.truth_id, target_region=outline,
+                     target_corners=outline)
+
+    def _disc_item(self, view: _View, th: Thing) -> _Item:
+        """A disc or cylinder standing on the desk: from above, its lit top is a circle."""
+        shapes, lines, depth, hull = self._frustum_parts(view, th.x, th.y, 0.0, th.height_m, th.radius_m,
+                                                         th.radius_m, th.colour, _shade(th.colour, 1.12))
+        return _Item(depth=depth, shapes=shapes, lines=lines, target=th.truth_id, target_region=hull,
+                     target_corners=hull)
+
+    def _plain_cup_item(self, view: _View, th: Thing) -> _Item:
+        """An upside-down cup without a marker."""
+        top_r = th.radius_m - (CUP_RIM_RADIUS_M - CUP_TOP_RADIUS_M)
+        shapes, lines, depth, hull = self._frustum_parts(view, th.x, th.y, 0.0, th.height_m, top_r, th.radius_m,
+                                                         th.colour, _shade(th.colour, 1.08))
+        return _Item(depth=depth, shapes=shapes, lines=lines, target=th.truth_id, target_region=hull,
+                     target_corners=hull)
+
+    def _thing_item(self, view: _View, th: Thing) -> _Item:
+        if th.kind == "ball":
+            spot = tuple(float(v + HIGHLIGHT_MIX * (255 - v)) for v in th.colour)
+            return self._ball_item(view, th.x, th.y, th.radius_m, th.colour, spot, th.truth_id)
+        if th.kind == "plush":
+            return self._plush_item(view, th)
+        if th.kind == "disc":
+            return self._disc_item(view, th)
+        return self._plain_cup_item(view, th)
 
     def _arm_items(self, view: _View, pts3: np.ndarray) -> tuple[list, list]:
         """(flat items, 3D items) for the arm's chain points (N, 3)."""
@@ -646,6 +731,8 @@ class SimDesk:
             circ = np.column_stack([c[0] + BALL_RADIUS_M * _CIRCLE32[:, 0] * 1.1,
                                     c[1] + BALL_RADIUS_M * _CIRCLE32[:, 1] * 1.3, np.zeros(len(_CIRCLE32))])
             polys.append(circ)
+        for th in st.things:
+            polys.append(self._thing_shadow(th, on_desk))
         for hand in st.hands:
             pose = (hand.x, hand.y, hand.z, hand.yaw)
             for outline in _HAND_OUTLINES:
@@ -668,6 +755,23 @@ class SimDesk:
                                               np.zeros(len(_CIRCLE32))]))
         return polys
 
+    @staticmethod
+    def _thing_shadow(th: Thing, on_desk) -> np.ndarray:
+        """A thing's shadow on the desk: the hull of its points dropped along the light (M, 3)."""
+        if th.kind == "ball" or th.kind == "plush":
+            a, b = (th.radius_m, th.height_m / 2) if th.kind == "plush" else (th.radius_m, th.radius_m)
+            c, s = math.cos(th.yaw), math.sin(th.yaw)
+            R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            pts = np.array(th.centre) + (_SPHERE * np.array([a, b, b])) @ R.T
+        else:
+            top_r = th.radius_m if th.kind == "disc" else th.radius_m - (CUP_RIM_RADIUS_M - CUP_TOP_RADIUS_M)
+            cs, sn = np.cos(_CUP_ANGLES), np.sin(_CUP_ANGLES)
+            pts = np.vstack([np.column_stack([th.x + top_r * cs, th.y + top_r * sn, np.full_like(cs, th.height_m)]),
+                             np.column_stack([th.x + th.radius_m * cs, th.y + th.radius_m * sn, np.zeros_like(cs)])])
+        flat = on_desk(pts)
+        hull = cv2.convexHull(flat[:, :2].astype(np.float32))[:, 0, :].astype(np.float64)
+        return np.column_stack([hull, np.zeros(len(hull))])
+
     def _layout(self, view: _View, st: SceneState, arm: Optional[np.ndarray]) -> list:
         """Items in painting order: flat things on the desk first, then far to near."""
         flat, solid = [], []
@@ -685,6 +789,7 @@ class SimDesk:
             ball_cup = next((c for c in st.cups if c.lift > 0.001), None) if st.cups else None
             if ball_cup is not None or not st.cups:  # under a resting cup it cannot be seen
                 solid.append(self._ball_item(view, st.ball.x, st.ball.y))
+        solid += [self._thing_item(view, th) for th in st.things]
         for hand in st.hands:
             item = self._hand_item(view, hand)
             if item is not None:
@@ -746,6 +851,9 @@ class SimDesk:
         if st.ball is not None:
             objects.append(ObjectTruth(-1, (float(st.ball.x), float(st.ball.y), BALL_RADIUS_M),
                                        vis["left"].get(-1, False), vis["right"].get(-1, False), label="ball"))
+        for th in st.things:  # marker-less things: negative ids, "<colour> <kind>" labels
+            objects.append(ObjectTruth(th.truth_id, th.centre, vis["left"].get(th.truth_id, False),
+                                       vis["right"].get(th.truth_id, False), label=th.label))
         return GroundTruth(objects=tuple(objects), pointing_target_id=st.pointing_target_id)
 
     def truth(self, t: float, arm_points: Optional[np.ndarray] = None) -> GroundTruth:

@@ -1,7 +1,8 @@
 """What happens on the simulated desk: every object's place as a smooth function of time.
 
 Pure geometry, no OpenCV: a scenario maps ``t`` (s) to a ``SceneState`` (cards lying on the
-desk, upside-down cups, the ball, a passing hand). ``core.sim.desk`` draws that state.
+desk, upside-down cups, the ball, a passing hand, marker-less things). ``core.sim.desk`` draws
+that state.
 Deterministic given ``seed`` and ``t``. Frame: robot_base (x right, y forward, z up, desk z = 0), m.
 """
 from __future__ import annotations
@@ -23,6 +24,11 @@ BALL_RADIUS_M = 0.015
 HAND_HEIGHT_M = 0.15  # the occluding hand hovers this high above the desk
 
 MAX_MARKERS = 8
+
+# marker-less things (the objects scenario): their ObjectTruth.marker_id is THING_ID_BASE − index
+# (−1 stays the cups game's ball) and their label is "<colour> <kind>", the kind its last word
+THING_KINDS = ("ball", "plush", "disc", "cup")
+THING_ID_BASE = -11
 
 
 @dataclass(frozen=True)
@@ -66,6 +72,42 @@ class Hand:
 
 
 @dataclass(frozen=True)
+class Thing:
+    """A marker-less object on the desk: a ball, a plush, a disc (a cylinder) or an upside-down cup.
+
+    Its truth point (``centre``): a ball's centre, a plush's centre, the middle of a disc's or a
+    cup's top face — where the object's pixels are around in both views.
+    """
+
+    kind: str  # one of THING_KINDS
+    label: str  # "<colour> <kind>", e.g. "red ball"
+    truth_id: int  # ObjectTruth.marker_id, <= THING_ID_BASE
+    x: float  # centre of its footprint, robot_base (m)
+    y: float
+    radius_m: float  # ball, disc: radius; cup: rim radius (its top is CUP_RIM − CUP_TOP narrower); plush: half length
+    height_m: float  # disc, cup: height; plush: height and width; ball: its diameter
+    colour: tuple[int, int, int]  # BGR body colour (shading varies around it)
+    yaw: float = 0.0  # plush: direction of its long axis about z (rad)
+
+    def __post_init__(self) -> None:
+        if self.kind not in THING_KINDS:
+            raise ValueError(f"thing kind {self.kind!r}: must be one of {', '.join(THING_KINDS)}")
+
+    @property
+    def centre(self) -> tuple[float, float, float]:
+        """The truth point in robot_base (m), see the class docstring."""
+        if self.kind == "disc" or self.kind == "cup":
+            return (float(self.x), float(self.y), float(self.height_m))
+        return (float(self.x), float(self.y), float(self.height_m) / 2)
+
+
+def thing_kind(label: str) -> Optional[str]:
+    """The kind of a thing from its truth label ("red ball" → "ball"), None for other labels."""
+    words = str(label).split()
+    return words[-1] if words and words[-1] in THING_KINDS else None
+
+
+@dataclass(frozen=True)
 class SceneState:
     """Everything on the desk at one instant."""
 
@@ -74,6 +116,7 @@ class SceneState:
     ball: Optional[Ball] = None
     hands: tuple[Hand, ...] = ()
     pointing_target_id: Optional[int] = None  # cups: the id of the cup hiding the ball
+    things: tuple[Thing, ...] = ()  # marker-less objects (the objects scenario)
 
 
 def smooth_step(s: float) -> float:
@@ -259,10 +302,106 @@ class WanderScenario(Scenario):
         return SceneState(cards=tuple(cards), hands=hands)
 
 
+class ObjectsScenario(Scenario):
+    """Marker-less things for the detectors and trackers: balls, a plush, discs, cups, a hand.
+
+    - red ball: round an ellipse (peak 0.075 m/s); green ball: still;
+    - blue ball: every BLUE_PERIOD_S rolls off the image past −x and back (peak 0.19 m/s), out
+      of both views for ~3 s of it;
+    - yellow plush (an elongated ellipsoid): slides back and forth along y (peak 0.051 m/s),
+      turning slowly;
+    - orange disc (flat) and purple cylinder: still; a hand comes in from +x every HAND_PERIOD_S
+      and hovers over the orange disc for HAND_HOVER_S, hiding it in both views;
+    - white and pink cups (upside down, no marker): still.
+    The marker ids become cards in out-of-the-way spots (the session still has markers to follow).
+    """
+
+    name = "objects"
+    CARD_SPOTS = ((-0.27, 0.20), (0.28, 0.13), (-0.27, 0.30), (0.28, 0.30))
+    CARD_YAWS = (0.2, -0.3, 0.1, -0.15)
+    BALL_RADIUS_M = 0.025
+    RED_CENTRE, RED_RADII, RED_PERIOD_S = (-0.15, 0.13), (0.06, 0.035), 5.0
+    BLUE_HOME, BLUE_EXCURSION_M = (0.04, 0.02), 0.62  # rolls to x = home − excursion (out of view)
+    BLUE_PERIOD_S, BLUE_OFFSET_S, BLUE_TRIP_S = 16.0, 2.0, 10.0
+    PLUSH_CENTRE, PLUSH_TRAVEL_M, PLUSH_PERIOD_S = (0.03, 0.145), 0.045, 5.5
+    DISC_XY = (0.23, 0.085)  # the orange disc the hand hides
+    HAND_PERIOD_S, HAND_OFFSET_S = 12.0, 5.0
+    HAND_IN_S, HAND_HOVER_S = 2.0, 2.0  # coming in (and going out) takes HAND_IN_S
+    HAND_Z_M = 0.10
+    HAND_FAR_X_M = 0.70  # where the hand comes from and goes back to (out of view)
+    # the hand hides the disc from above the point where the line of sight from the default rig
+    # (midpoint (0, 0.42, 0.45)) to the disc's top crosses the hand's height
+    VIEWPOINT = (0.0, 0.42, 0.45)
+
+    def __init__(self, marker_ids: Sequence[int], seed: int = 0):
+        super().__init__(marker_ids, seed)
+        if len(self.marker_ids) > len(self.CARD_SPOTS):
+            raise ValueError(f"the objects scenario has room for {len(self.CARD_SPOTS)} markers, "
+                             f"got {len(self.marker_ids)}")
+        self._cards = tuple(Card(mid, *self.CARD_SPOTS[i], yaw=self.CARD_YAWS[i])
+                            for i, mid in enumerate(self.marker_ids))
+        r = self.BALL_RADIUS_M
+        self._still = {
+            "green ball": dict(kind="ball", x=0.13, y=0.235, radius_m=r, height_m=2 * r, colour=(60, 170, 50)),
+            "orange disc": dict(kind="disc", x=self.DISC_XY[0], y=self.DISC_XY[1], radius_m=0.03, height_m=0.008,
+                                colour=(30, 125, 240)),
+            "purple disc": dict(kind="disc", x=-0.20, y=0.28, radius_m=0.022, height_m=0.045,
+                                colour=(150, 60, 140)),
+            "white cup": dict(kind="cup", x=-0.05, y=0.30, radius_m=CUP_RIM_RADIUS_M, height_m=CUP_HEIGHT_M,
+                              colour=(222, 224, 228)),
+            "pink cup": dict(kind="cup", x=0.19, y=0.30, radius_m=CUP_RIM_RADIUS_M, height_m=CUP_HEIGHT_M,
+                             colour=(170, 120, 240)),
+        }
+
+    LABELS = ("red ball", "green ball", "blue ball", "yellow plush", "orange disc", "purple disc",
+              "white cup", "pink cup")
+
+    def _thing(self, label: str, **kw) -> Thing:
+        return Thing(label=label, truth_id=THING_ID_BASE - self.LABELS.index(label), **kw)
+
+    def hand_at(self, t: float) -> Optional[Hand]:
+        """The hand hovering over the orange disc (or on its way), None while it is away."""
+        k = math.floor((t - self.HAND_OFFSET_S) / self.HAND_PERIOD_S)
+        tau = t - self.HAND_OFFSET_S - k * self.HAND_PERIOD_S
+        total = 2 * self.HAND_IN_S + self.HAND_HOVER_S
+        if not 0.0 < tau < total:
+            return None
+        come = smooth_step(tau / self.HAND_IN_S)
+        go = smooth_step((tau - self.HAND_IN_S - self.HAND_HOVER_S) / self.HAND_IN_S)
+        # the disc's top seen from VIEWPOINT, at the hand's height
+        top = np.array([self.DISC_XY[0], self.DISC_XY[1], 0.008])
+        eye = np.array(self.VIEWPOINT)
+        s = (self.HAND_Z_M - top[2]) / (eye[2] - top[2])
+        cover = top + s * (eye - top)
+        palm_x = cover[0] + 0.0275  # the palm's middle is 2.75 cm from the hand's origin along the fingers (−x)
+        x = palm_x + (self.HAND_FAR_X_M - palm_x) * (1.0 - come + go)
+        return Hand(float(x), float(cover[1]), self.HAND_Z_M, yaw=math.pi / 2)  # fingers towards −x
+
+    def state(self, t: float) -> SceneState:
+        r = self.BALL_RADIUS_M
+        a = 2 * math.pi * t / self.RED_PERIOD_S
+        red = self._thing("red ball", kind="ball", x=self.RED_CENTRE[0] + self.RED_RADII[0] * math.cos(a),
+                          y=self.RED_CENTRE[1] + self.RED_RADII[1] * math.sin(a), radius_m=r, height_m=2 * r,
+                          colour=(38, 38, 205))
+        k = math.floor((t - self.BLUE_OFFSET_S) / self.BLUE_PERIOD_S)
+        s = (t - self.BLUE_OFFSET_S - k * self.BLUE_PERIOD_S) / self.BLUE_TRIP_S
+        blue = self._thing("blue ball", kind="ball", x=self.BLUE_HOME[0] - self.BLUE_EXCURSION_M * bump(s),
+                           y=self.BLUE_HOME[1], radius_m=r, height_m=2 * r, colour=(200, 90, 30))
+        b = 2 * math.pi * t / self.PLUSH_PERIOD_S
+        plush = self._thing("yellow plush", kind="plush", x=self.PLUSH_CENTRE[0],
+                            y=self.PLUSH_CENTRE[1] + self.PLUSH_TRAVEL_M * math.sin(b), radius_m=0.065,
+                            height_m=0.04, colour=(40, 200, 235), yaw=0.3 + 0.3 * math.sin(2 * math.pi * t / 13.0))
+        things = [red, blue, plush] + [self._thing(label, **kw) for label, kw in self._still.items()]
+        things.sort(key=lambda th: -th.truth_id)  # in LABELS order
+        hand = self.hand_at(t)
+        return SceneState(cards=self._cards, hands=() if hand is None else (hand,), things=tuple(things))
+
+
 SCENARIOS: dict[str, type[Scenario]] = {
     "static": StaticScenario,
     "cups": CupsScenario,
     "wander": WanderScenario,
+    "objects": ObjectsScenario,
 }
 
 

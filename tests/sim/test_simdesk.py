@@ -54,8 +54,8 @@ def assert_close(actual, expected, tol, what):
 # ---------------------------------------------------------------------------------------------
 
 
-def test_scenario_names_list_static_cups_wander():
-    assert set(scenario_names()) == {"static", "cups", "wander"}
+def test_scenario_names_list_static_cups_wander_objects():
+    assert set(scenario_names()) == {"static", "cups", "wander", "objects"}
     assert set(SCENARIOS) == set(scenario_names())
 
 
