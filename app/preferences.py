@@ -62,6 +62,7 @@ class WindowPreferences(QtCore.QObject):
         # (seen as segfaults in QPainter::restore in the next test's window)
         self._window = weakref.ref(window)
         self.path = Path(path) if path else preferences_path()
+        self._file_existed = self.path.is_file()
         self.prefs, self.messages = load_preferences(self.path)
         self.geometry_restored = False
         self._applying = False  # restore/reset at work: their own signals are not user changes
@@ -106,6 +107,7 @@ class WindowPreferences(QtCore.QObject):
             self._problem(str(exc))
             return False
         self.prefs = Preferences()
+        self._file_existed = True  # the defaults are what the user asked for: the mode too
         self._apply(self.prefs, geometry=False)
         return True
 
@@ -143,6 +145,14 @@ class WindowPreferences(QtCore.QObject):
         return p
 
     # ------------------------------------------------------------------ applying
+    def _saved_mode_applies(self) -> bool:
+        """The saved target mode comes back only from a saved file, and never over a scenario
+        that sets its own (``--scenario cups`` starts the cups game): with no file the session's
+        default mode (Follow marker on the simulated desk) stays."""
+        if not self._file_existed:
+            return False
+        return getattr(self.window.session.options, "scenario", "static") != "cups"
+
     def _apply(self, prefs: Preferences, geometry: bool) -> None:
         w = self.window
         was, self._applying = self._applying, True
@@ -154,8 +164,9 @@ class WindowPreferences(QtCore.QObject):
             if prefs.follow_id is not None:
                 tp.set_follow_id(prefs.follow_id)  # emits (-> on_follow_id) only when it changed
                 w.on_follow_id(prefs.follow_id)
-            tp.set_mode(prefs.target_mode.value)
-            w.on_mode_changed(prefs.target_mode.value)
+            if self._saved_mode_applies():
+                tp.set_mode(prefs.target_mode.value)
+                w.on_mode_changed(prefs.target_mode.value)
             picker = w.bridge_picker
             picker.set_recent_ports(prefs.recent_ports)
             picker.set_protocol(prefs.bridge_protocol)

@@ -265,3 +265,13 @@ def test_restore_never_connects_a_saved_serial_port(qtbot, sessions):
     with qtbot.assertNotEmitted(w.bridge_picker.sigConnectRequested):
         prefs.restore()
     assert w.bridge_picker.port() == "loop://" and w.session.bridge.url == "sim://"
+
+
+def test_without_a_saved_file_the_sessions_own_mode_stays(qtbot, sessions):
+    """A first start (no preferences file) keeps the session's mode: Follow marker on the
+    simulated desk, the cups game with --scenario cups — the saved default 'manual' is not forced."""
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="cups"))
+    sessions.append(session)
+    w = MainWindow(session)
+    qtbot.addWidget(w)
+    assert w.session.targeter.mode is TargetMode.CUPS and w.target_panel.mode == "cups"
