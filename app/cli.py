@@ -10,6 +10,7 @@ import os
 import sys
 
 from app.headless import check_duration
+from core.detect.registry import parse_detector_list
 from core.devices.bridge import BRIDGE_CHOICES
 from core.session import SCENARIOS, SessionOptions
 from core.vision.cameras import CAMERA_CHOICES
@@ -41,6 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--remote", default=None, metavar="ENDPOINT",
                    help="open the window (or headless run) on a desk served by `deskarm serve` on another "
                         "machine, e.g. tcp/192.168.1.20:7447")
+    p.add_argument("--detector", default=None, metavar="NAME[,NAME…]",
+                   help="also locate marker-less objects in 3D with these detectors (e.g. hsv, circles, "
+                        "onnx:PATH; the headless JSON then scores them against the simulated desk's truth)")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -87,6 +91,11 @@ def main(argv: list[str] | None = None) -> int:
         return module.run(argv[0], argv[1:])
     args = build_parser().parse_args(argv)
     try:
+        detectors = () if args.detector is None else tuple(parse_detector_list(args.detector))
+    except ValueError as exc:
+        print(f"deskarm: --detector {args.detector!r}: {exc}", file=sys.stderr)
+        return 2
+    try:
         from app.cli_handeye import parse_rig_offset
 
         rig_offset = parse_rig_offset(args.rig_offset)
@@ -97,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
         event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
-        markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms,
+        markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms, detectors=detectors,
     )
     try:
         options.validate()

@@ -32,10 +32,12 @@ from core.devices.bridge import BridgeError
 from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
+from core.sim.scenarios import thing_kind
 
 MAX_SAMPLES = 20_000  # samples kept per metric: a p95 from this many is within ~0.3 percentile points
 RECENT_PERCEPTION = 60  # frames behind the status line's perception figure (2 s at 30 fps)
 RECENT_ERROR_3D = 120  # marker observations behind the status line's 3D error figure
+OBJECT_SEEN_M = 0.03  # an object observation this near its truth (same label) counts as seeing it
 
 
 def check_duration(duration_s) -> float:
@@ -121,6 +123,39 @@ class RunMetrics:
     tick_steps: int = 0  # control steps run on the 50 Hz tick
     bridge_disconnects: int = 0  # times the bridge's device went away during the run
     disconnected_s: float = 0.0  # total time without a bridge link (s)
+    # marker-less objects (only with --detector: ``objects`` is True then)
+    objects: bool = False
+    object_perception_ms: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 6))
+    object_visible_pairs: int = 0  # (frame, truth object) pairs visible in both views by ground truth
+    object_seen_pairs: int = 0  # of those, with an observation of its label within OBJECT_SEEN_M
+    object_error_mm: dict = field(default_factory=dict)  # kind -> Reservoir (mm)
+    object_id_switches: int = 0
+    object_velocity_error_mm_s: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 7))
+
+    def object_error(self, kind: str) -> Reservoir:
+        """The error reservoir of one kind of object (created on first use, its own seed)."""
+        if kind not in self.object_error_mm:
+            self.object_error_mm[kind] = Reservoir(MAX_SAMPLES, 100 + len(self.object_error_mm))
+        return self.object_error_mm[kind]
+
+    def object_summary(self) -> dict:
+        """The marker-less objects' part of the JSON (empty without --detector)."""
+        if not self.objects:
+            return {}
+
+        def r(v, nd=3):
+            return None if v is None else round(v, nd)
+
+        kinds = sorted(self.object_error_mm)
+        return {
+            "object_perception_ms_p50": r(percentile(self.object_perception_ms, 50)),
+            "targets_seen_ratio": r(self.object_seen_pairs / self.object_visible_pairs
+                                    if self.object_visible_pairs else 0.0),
+            "error_3d_mm_p50_by_kind": {k: r(percentile(self.object_error_mm[k], 50)) for k in kinds},
+            "error_3d_mm_p95_by_kind": {k: r(percentile(self.object_error_mm[k], 95)) for k in kinds},
+            "id_switches": self.object_id_switches,
+            "velocity_error_mm_s_p50": r(percentile(self.object_velocity_error_mm_s, 50)),
+        }
 
     def summary(self) -> dict:
         def r(v, nd=3):
@@ -149,6 +184,7 @@ class RunMetrics:
             "duration_s": r(self.sim_s, 2),
             "bridge_disconnects": self.bridge_disconnects,
             "disconnected_s": r(self.disconnected_s),
+            **self.object_summary(),
         }
 
 
@@ -190,6 +226,10 @@ class HeadlessRunner:
         # the window's backoff (0.5 s … 5 s), on the session's clock (simulated with --fast)
         self.reconnector = Reconnector(now=session.clock.now)
         self._recorded_base_T_camera = session.perception.base_T_camera
+        self.metrics.objects = session.object_perception is not None
+        self._object_labels = detector_labels(session.object_perception)
+        self._object_ids: dict[int, int] = {}  # truth id -> object_id of its last matched observation
+        self._object_truth_prev: dict[int, tuple[float, np.ndarray]] = {}  # truth id -> (t, position)
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
@@ -230,6 +270,11 @@ class HeadlessRunner:
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))
                 self._score_frame(frame, result)
+                if s.object_perception is not None:  # marker-less objects, after the markers
+                    w1 = time.perf_counter()
+                    objects = s.object_perception.process(frame)
+                    m.object_perception_ms.append((time.perf_counter() - w1) * 1e3)
+                    self._score_objects(frame, objects)
                 schedule.goal_arrived(clock.now())  # a new perception result: step at once
                 # event-driven: this frame's step now; tick-driven (or real cameras): any ticks due
                 while schedule.due(clock.now()):
@@ -333,6 +378,69 @@ class HeadlessRunner:
                 m.error_3d_mm.append(error_mm)
                 m.recent_error_3d_mm.append(error_mm)
 
+    def _score_objects(self, frame, observations) -> None:
+        """Score the marker-less objects of one frame against its ground truth (simulated desk).
+
+        Targets: the truth things (labels "<colour> <kind>") visible in both views whose label the
+        detectors can give (``label_matches``). Each is matched to the nearest triangulated
+        observation of its label (one observation per truth, greedy nearest first): its distance
+        is the kind's 3D error; within OBJECT_SEEN_M it counts as seen, and then its id (switches)
+        and its velocity (against the truth's, from consecutive truth positions) are scored too.
+        """
+        m, truth = self.metrics, frame.truth
+        if truth is None:
+            return
+        t = float(frame.t)
+        targets = []
+        for obj in truth.objects:
+            kind = thing_kind(obj.label)
+            if kind is None:
+                continue
+            p = np.asarray(obj.base_p_centre, dtype=float)
+            prev = self._object_truth_prev.get(obj.marker_id)
+            velocity = None
+            if prev is not None and t - prev[0] > 1e-6:
+                velocity = (p - prev[1]) / (t - prev[0])
+            if prev is None or t - prev[0] > 1e-6:
+                self._object_truth_prev[obj.marker_id] = (t, p)
+            if not (obj.visible_left and obj.visible_right):
+                continue
+            if self._object_labels is not None and not any(label_matches(label, obj.label)
+                                                           for label in self._object_labels):
+                continue
+            targets.append((obj, kind, p, velocity))
+        measured = [o for o in observations if o.triangulated and o.base_p is not None]
+        candidates = []
+        for ti, (obj, _, p, _) in enumerate(targets):
+            for oi, o in enumerate(measured):
+                if label_matches(o.label, obj.label):
+                    candidates.append((float(np.linalg.norm(np.asarray(o.base_p) - p)), ti, oi))
+        candidates.sort()
+        matched: dict[int, tuple[float, int]] = {}
+        used = set()
+        for dist, ti, oi in candidates:
+            if ti in matched or oi in used:
+                continue
+            matched[ti] = (dist, oi)
+            used.add(oi)
+        for ti, (obj, kind, p, velocity) in enumerate(targets):
+            m.object_visible_pairs += 1
+            if ti not in matched:
+                continue
+            dist, oi = matched[ti]
+            m.object_error(kind).append(dist * 1e3)
+            if dist > OBJECT_SEEN_M:
+                continue
+            m.object_seen_pairs += 1
+            o = measured[oi]
+            last_id = self._object_ids.get(obj.marker_id)
+            if last_id is not None and last_id != o.object_id:
+                m.object_id_switches += 1
+            self._object_ids[obj.marker_id] = o.object_id
+            if velocity is not None and o.velocity_base is not None:
+                m.object_velocity_error_mm_s.append(
+                    float(np.linalg.norm(np.asarray(o.velocity_base) - velocity)) * 1e3)
+
     def _score_reach(self, cmd, state) -> None:
         """Tool tip vs aimed point, once the arm has settled on a goal that stopped moving."""
         s, m = self.s, self.metrics
@@ -384,6 +492,29 @@ class HeadlessRunner:
             f"3d-error={e or 0:.2f}mm seen={seen:.0%} commands={m.commands_sent} "
             f"limit-violations={m.limit_violations}{note}"
         )
+
+
+def detector_labels(perception) -> Optional[tuple[str, ...]]:
+    """The labels an object perception's detectors can give (colour names), None when one of them
+    names its detections freely (a learned model's classes: every truth object is a target then)."""
+    if perception is None:
+        return None
+    labels: list[str] = []
+    for detector in perception.detectors:
+        colours = getattr(detector.params, "colours", None)
+        if colours is None:
+            return None
+        labels += [c.name for c in colours]
+    return tuple(labels)
+
+
+def label_matches(label: str, truth_label: str) -> bool:
+    """Does a detection labelled ``label`` name the truth object ``truth_label`` ("red ball")?
+    Yes for the whole label, its colour ("red") or its kind ("ball")."""
+    label, words = str(label).strip().lower(), str(truth_label).strip().lower().split()
+    if not label or not words:
+        return False
+    return label in (" ".join(words), " ".join(words[:-1]), words[-1])
 
 
 def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None, record=None) -> int:

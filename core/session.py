@@ -13,6 +13,8 @@ from typing import Optional
 import numpy as np
 
 from core.clock import SimClock, WallClock
+from core.detect.registry import make_detector, parse_detector_list
+from core.detect.stereo import StereoObjectPerception
 from core.devices import open_bridge
 from core.devices.bridge import MotorBridge, parse_bridge_url
 from core.handeye import HandEyeResult, ToolMarker, tool_marker_of
@@ -58,9 +60,18 @@ class SessionOptions:
     remote: Optional[str] = None
     # simulated desk only: the right view is captured this much later than the left (ms, 0…100)
     sim_skew_ms: float = 0.0
+    # detectors of marker-less objects (registry names, e.g. ("hsv",)): run on every frame after the
+    # markers, matched across the views, triangulated and tracked (``DeskSession.object_perception``)
+    detectors: tuple[str, ...] = ()
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
+        if self.detectors:
+            items = (self.detectors,) if isinstance(self.detectors, str) else tuple(self.detectors)
+            try:
+                self.detectors = tuple(parse_detector_list(",".join(str(d) for d in items)))
+            except ValueError as exc:
+                raise ValueError(f"--detector: {exc}") from None
         if self.rig_offset is not None:
             check_rig_offset_option(self.rig_offset)
         parse_camera_spec(self.camera)
@@ -100,6 +111,8 @@ class DeskSession:
     camera_to_robot: str = ""  # status-bar text, see camera_to_robot_state()
     tool_marker: Optional[ToolMarker] = None  # the marker the arm carries (hand-eye sweep)
     markers: Optional[MarkersConfig] = None  # the markers the user configured (names, actions)
+    # marker-less objects located in 3D by ``options.detectors`` (None when none were given)
+    object_perception: Optional[StereoObjectPerception] = None
 
     @classmethod
     def create(cls, options: SessionOptions) -> "DeskSession":
@@ -164,15 +177,22 @@ class DeskSession:
         targeter = Targeter(clock, mode=mode, follow_id=ids[0], cup_ids=ids[:2],
                             lissajous=lissajous_for(profile, kinematics))
         controller = ArmController(profile, kinematics)
+        object_perception = None
+        if options.detectors:  # "hsv" with its default colours, every detector with its defaults
+            object_perception = StereoObjectPerception(calibration, base_T_camera,
+                                                       [make_detector(name) for name in options.detectors])
         bridge = remote_bridge or open_bridge(options.bridge, profile, clock=clock)
         return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
                    controller, bridge, banners, hand_eye=hand_eye, camera_to_robot=state, tool_marker=tool_marker,
-                   markers=markers)
+                   markers=markers, object_perception=object_perception)
 
     def use_hand_eye(self, result: HandEyeResult, path=None) -> None:
         """A camera→robot calibration saved from the window: perception maps to robot_base with
         it from the next frame on, and the status bar says so."""
         self.perception.base_T_camera = np.asarray(result.base_T_camera, dtype=np.float64).copy()
+        if self.object_perception is not None:  # the objects map to robot_base through it too
+            self.object_perception.geometry.base_T_camera = self.perception.base_T_camera
+            self.object_perception.base_T_camera = self.perception.base_T_camera
         self.hand_eye = result
         self.camera_to_robot = f"camera→robot: calibrated, {result.rms_mm:.1f} mm RMS"
 
