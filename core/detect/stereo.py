@@ -132,6 +132,11 @@ def _point(p) -> tuple[float, float, float]:
     return tuple(float(v) for v in np.asarray(p, dtype=float).reshape(3))
 
 
+REACQUIRE_M = 0.20  # a live track's last position this near takes a detection its prediction missed
+LOST_KEEP_S = 8.0  # a lost track is remembered this long, for an object that leaves and comes back
+LOST_REACQUIRE_M = 0.40  # … and takes a detection of its label this near its last position
+
+
 class _ObjectTrack:
     """What the perception remembers about one object between frames."""
 
@@ -202,6 +207,7 @@ class StereoObjectPerception:
         self.measurement_noise = float(measurement_noise)
         self.refine_centres = bool(refine_centres)  # blobs: sub-pixel centroid (``blob_centre``)
         self.tracks: dict[int, _ObjectTrack] = {}
+        self.lost: dict[int, tuple[_ObjectTrack, float]] = {}  # dropped tracks, by id: (track, time lost)
         self._next_id = 1
         self._t: Optional[float] = None
         self._last: Optional[tuple[StereoFrame, list[ObjectObservation]]] = None
@@ -209,6 +215,7 @@ class StereoObjectPerception:
     def reset(self) -> None:
         """Forget every track (ids start again at 1)."""
         self.tracks.clear()
+        self.lost.clear()
         self._next_id = 1
         self._t = None
         self._last = None
@@ -311,6 +318,7 @@ class StereoObjectPerception:
             track.missed += 1
             if track.missed > self.drop_after:
                 del self.tracks[track.object_id]
+                self.lost[track.object_id] = (track, t)  # it may come back (re-enters the view)
                 continue
             single = self._single_view(track, t, left, right, rect_l, rect_r, used_l, used_r)
             if single is not None:
@@ -340,6 +348,15 @@ class StereoObjectPerception:
                 continue
             chosen[k] = self.tracks[object_id]
             taken.add(object_id)
+        # second chance before a new id: the same kind and label near where a live track was last
+        # measured (it sped up past its prediction), else a recently lost one (it left and came back)
+        for k, d in enumerate(dets):
+            if k in chosen:
+                continue
+            track = self._reacquire(t, d, base_p[k], taken)
+            if track is not None:
+                chosen[k] = track
+                taken.add(track.object_id)
         result = []
         for k, d in enumerate(dets):
             if k not in chosen:
@@ -351,6 +368,38 @@ class StereoObjectPerception:
                 chosen[k] = track
             result.append(chosen[k])
         return result
+
+    def _reacquire(self, t: float, d: Detection, p: np.ndarray, taken: set) -> Optional[_ObjectTrack]:
+        """A live track of this label within ``REACQUIRE_M`` of its last position, or one lost in
+        the last ``LOST_KEEP_S`` — the nearest; None when there is none."""
+        best, best_dist = None, math.inf
+        for track in self.tracks.values():
+            if track.object_id in taken or track.kind != d.kind or track.label != d.label:
+                continue
+            last = track.kf.position
+            dist = math.inf if last is None else float(np.linalg.norm(p - last))
+            if dist < REACQUIRE_M and dist < best_dist:
+                best, best_dist = track, dist
+        if best is not None:
+            return best
+        for object_id, (track, t_lost) in list(self.lost.items()):
+            if t - t_lost > LOST_KEEP_S:
+                del self.lost[object_id]
+                continue
+            if object_id in taken or track.kind != d.kind or track.label != d.label:
+                continue
+            last = track.kf.position
+            dist = math.inf if last is None else float(np.linalg.norm(p - last))
+            if dist < LOST_REACQUIRE_M and dist < best_dist:
+                best, best_dist = track, dist
+        if best is not None:
+            del self.lost[best.object_id]
+            best.missed = 0
+            best.left_hist.clear()
+            best.right_hist.clear()
+            best.kf.reset()  # a fresh start where it came back
+            self.tracks[best.object_id] = best
+        return best
 
     def _measure(self, track: _ObjectTrack, t: float, t_right: float, skew_s: float,
                  dl: Detection, dr: Detection, rl: np.ndarray, rr: np.ndarray) -> ObjectObservation:
