@@ -22,6 +22,7 @@ from core.messages import (
     FRAME_ROBOT_BASE,
     FRAME_TOOL,
 )
+from core.vision.calibration import ros_distortion
 
 TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
 T = TYPESTORE.types  # msgtype name -> message class
@@ -100,12 +101,7 @@ def camera_info(calib, side: str, t: float):
         raise ValueError(f"side {side!r}; valid: left, right")
     M, D, R, P = ((calib.M1, calib.D1, calib.R1, calib.P1) if side == "left"
                   else (calib.M2, calib.D2, calib.R2, calib.P2))
-    d = np.asarray(D, np.float64).reshape(-1)
-    if d.size == 4:
-        d = np.append(d, 0.0)
-    if d.size > 8:  # ROS has no thin-prism/tilted model: keep the rational part
-        d = d[:8]
-    model = "plumb_bob" if d.size == 5 else "rational_polynomial"
+    model, d = ros_distortion(D)
     w, h = (int(v) for v in calib.image_size)
     frame = FRAME_CAMERA_LEFT if side == "left" else FRAME_CAMERA_RIGHT
     roi = T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
@@ -115,17 +111,17 @@ def camera_info(calib, side: str, t: float):
         p=np.asarray(P, np.float64).reshape(12).copy(), binning_x=0, binning_y=0, roi=roi)
 
 
-def joint_state(q: Sequence[float], t: float, names: Sequence[str]):
+def joint_state(q: Sequence[float], t: float, names: Sequence[str], frame_id: str = ""):
     """sensor_msgs/JointState: positions q (rad or m) named from the robot profile."""
     q = np.asarray(q, dtype=np.float64).reshape(-1)
     names = list(names)[: q.size]
     names += [f"joint{i + 1}" for i in range(len(names), q.size)]  # a profile shorter than q
     empty = np.zeros(0, dtype=np.float64)
-    return T["sensor_msgs/msg/JointState"](header=header(t, ""), name=names, position=q.copy(),
+    return T["sensor_msgs/msg/JointState"](header=header(t, frame_id), name=names, position=q.copy(),
                                             velocity=empty, effort=empty)
 
 
-def _quaternion(R: np.ndarray) -> tuple[float, float, float, float]:
+def quaternion_xyzw(R: np.ndarray) -> tuple[float, float, float, float]:
     """(x, y, z, w) of a rotation matrix (Shepperd's method, numerically safe)."""
     R = np.asarray(R, dtype=np.float64)
     tr = R[0, 0] + R[1, 1] + R[2, 2]
@@ -152,7 +148,7 @@ def transform_stamped(parent_T_child, t: float, parent: str, child: str):
         m = np.block([[np.eye(3), m.reshape(3, 1)], [np.zeros((1, 3)), np.ones((1, 1))]])
     if m.shape != (4, 4):
         raise ValueError(f"{parent}_T_{child} has shape {m.shape}; expected 4x4 or 3")
-    qx, qy, qz, qw = _quaternion(m[:3, :3])
+    qx, qy, qz, qw = quaternion_xyzw(m[:3, :3])
     tr = T["geometry_msgs/msg/Transform"](
         translation=T["geometry_msgs/msg/Vector3"](x=float(m[0, 3]), y=float(m[1, 3]), z=float(m[2, 3])),
         rotation=T["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw))

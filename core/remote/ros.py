@@ -21,14 +21,11 @@ the two machines' clocks agree.
 from __future__ import annotations
 
 import json
-import math
 import struct
 import time
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Optional
-
-import numpy as np
 
 from core.messages import (
     FRAME_CAMERA_LEFT,
@@ -36,6 +33,7 @@ from core.messages import (
     FRAME_ROBOT_BASE,
     FRAME_TOOL,
 )
+from core.record import topics as _rec
 
 # topic -> ROS 2 message type
 TOPICS: dict[str, str] = {
@@ -66,12 +64,10 @@ GID_SIZE = 16
 ATTACHMENT_SIZE = 8 + 8 + 1 + GID_SIZE
 
 
-@lru_cache(maxsize=1)
 def typestore():
-    """rosbags' ROS 2 Humble type store (the recordings' message definitions)."""
-    from rosbags.typesys import Stores, get_typestore
+    """rosbags' ROS 2 Humble type store — the recordings' own (core.record.topics)."""
+    return _rec.TYPESTORE
 
-    return get_typestore(Stores.ROS2_HUMBLE)
 
 
 def dds_type_name(msgtype: str) -> str:
@@ -146,11 +142,11 @@ def _t(name: str):
     return typestore().types[name]
 
 
+# The messages are the recordings' (core.record.topics builds them); these wrappers keep the
+# remote desk's argument order (wall seconds last) and its frames.
 def ros_time(wall_s: float):
     """builtin_interfaces/Time from wall seconds."""
-    sec = math.floor(wall_s)
-    nsec = min(int(round((wall_s - sec) * 1e9)), 999_999_999)
-    return _t("builtin_interfaces/msg/Time")(sec=int(sec), nanosec=nsec)
+    return _rec.stamp(wall_s)
 
 
 def stamp_s(stamp) -> float:
@@ -159,76 +155,36 @@ def stamp_s(stamp) -> float:
 
 
 def header(wall_s: float, frame_id: str = ""):
-    return _t("std_msgs/msg/Header")(stamp=ros_time(wall_s), frame_id=frame_id)
+    return _rec.header(wall_s, frame_id)
 
 
 def compressed_image(jpeg: bytes, wall_s: float, frame_id: str):
-    return _t("sensor_msgs/msg/CompressedImage")(header=header(wall_s, frame_id), format="jpeg",
-                                                 data=np.frombuffer(jpeg, dtype=np.uint8))
+    return _rec.compressed_image(jpeg, wall_s, frame_id)
 
 
 def camera_info(calibration, side: str, wall_s: float):
     """sensor_msgs/CameraInfo of one camera of a StereoCalibration (the rectified P, as ROS does)."""
-    left = side == "left"
-    K = calibration.M1 if left else calibration.M2
-    D = np.asarray(calibration.D1 if left else calibration.D2, float).reshape(-1)
-    R = calibration.R1 if left else calibration.R2
-    P = calibration.P1 if left else calibration.P2
-    w, h = calibration.image_size
-    roi = _t("sensor_msgs/msg/RegionOfInterest")(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
-    return _t("sensor_msgs/msg/CameraInfo")(
-        header=header(wall_s, FRAME_CAMERA_LEFT if left else FRAME_CAMERA_RIGHT), height=int(h), width=int(w),
-        distortion_model="plumb_bob" if D.size <= 5 else "rational_polynomial", d=D.astype(np.float64),
-        k=np.asarray(K, np.float64).reshape(9), r=np.asarray(R, np.float64).reshape(9),
-        p=np.asarray(P, np.float64).reshape(12), binning_x=0, binning_y=0, roi=roi)
+    return _rec.camera_info(calibration, side, wall_s)
 
 
 def joint_state(names, q, wall_s: float):
-    return _t("sensor_msgs/msg/JointState")(
-        header=header(wall_s, FRAME_ROBOT_BASE), name=list(names), position=np.asarray(q, np.float64),
-        velocity=np.zeros(0, np.float64), effort=np.zeros(0, np.float64))
+    return _rec.joint_state(q, wall_s, names, frame_id=FRAME_ROBOT_BASE)
 
 
-def quaternion_xyzw(R) -> tuple[float, float, float, float]:
-    """A rotation matrix as a unit quaternion (x, y, z, w)."""
-    R = np.asarray(R, float)[:3, :3]
-    tr = np.trace(R)
-    if tr > 0:
-        s = math.sqrt(tr + 1.0) * 2
-        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s
-    else:
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = math.sqrt(1.0 + R[i, i] - R[j, j] - R[k, k]) * 2
-        q = [0.0, 0.0, 0.0]
-        q[i] = 0.25 * s
-        q[j] = (R[j, i] + R[i, j]) / s
-        q[k] = (R[k, i] + R[i, k]) / s
-        w = (R[k, j] - R[j, k]) / s
-        x, y, z = q
-    n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
-    return (x / n, y / n, z / n, w / n)
+quaternion_xyzw = _rec.quaternion_xyzw
 
 
 def transform_stamped(parent_T_child, parent: str, child: str, wall_s: float):
-    T = np.asarray(parent_T_child, float)
-    x, y, z, w = quaternion_xyzw(T[:3, :3])
-    tf = _t("geometry_msgs/msg/Transform")(
-        translation=_t("geometry_msgs/msg/Vector3")(x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3])),
-        rotation=_t("geometry_msgs/msg/Quaternion")(x=x, y=y, z=z, w=w))
-    return _t("geometry_msgs/msg/TransformStamped")(header=header(wall_s, parent), child_frame_id=child, transform=tf)
+    return _rec.transform_stamped(parent_T_child, wall_s, parent, child)
 
 
-def tf_message(transforms):
-    return _t("tf2_msgs/msg/TFMessage")(transforms=list(transforms))
+tf_message = _rec.tf_message
 
 
 def marker_array(result, wall_s: float):
     """visualization_msgs/MarkerArray of the markers found, exactly as the recordings write it
-    (``core.record.topics.marker_array``: ns "aruco", id = marker id, position in robot_base)."""
-    from core.record.topics import marker_array as recorded_marker_array
-
-    return recorded_marker_array(result, wall_s)
+    (ns "aruco", id = marker id, position in robot_base)."""
+    return _rec.marker_array(result, wall_s)
 
 
 def point_stamped(base_p, wall_s: float, frame_id: str = FRAME_ROBOT_BASE):
@@ -237,8 +193,7 @@ def point_stamped(base_p, wall_s: float, frame_id: str = FRAME_ROBOT_BASE):
                                                 point=_t("geometry_msgs/msg/Point")(x=x, y=y, z=z))
 
 
-def bool_msg(value: bool):
-    return _t("std_msgs/msg/Bool")(data=bool(value))
+bool_msg = _rec.bool_msg
 
 
 def string_msg(text: str):

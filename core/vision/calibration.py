@@ -271,6 +271,18 @@ def _camera_matrix_problem(m: np.ndarray) -> str:
     return ""
 
 
+def ros_distortion(D) -> tuple[str, np.ndarray]:
+    """(distortion model, coefficients) as ROS writes them: plumb_bob for 4–5 coefficients (a
+    missing k3 is 0), rational_polynomial for 8; ROS has no thin-prism/tilted model, so 12 or 14
+    coefficients keep their rational part."""
+    d = np.asarray(D, np.float64).reshape(-1)
+    if d.size == 4:
+        d = np.append(d, 0.0)
+    if d.size > 8:
+        d = d[:8]
+    return ("plumb_bob" if d.size == 5 else "rational_polynomial"), d
+
+
 def ros_camera_info_yaml(calib: StereoCalibration, side: str, camera_name: str = "") -> str:
     """One camera of the pair as a ROS ``camera_info`` YAML (camera_calibration_parsers format):
     K, D (plumb_bob, or rational_polynomial for 8 coefficients), the rectifying R and projection P."""
@@ -278,12 +290,7 @@ def ros_camera_info_yaml(calib: StereoCalibration, side: str, camera_name: str =
         raise ValueError(f"side {side!r}; valid: left, right")
     M, D, R, P = ((calib.M1, calib.D1, calib.R1, calib.P1) if side == "left"
                   else (calib.M2, calib.D2, calib.R2, calib.P2))
-    d = np.asarray(D, np.float64).reshape(-1)
-    if d.size == 4:
-        d = np.append(d, 0.0)
-    model = "plumb_bob" if d.size == 5 else "rational_polynomial"
-    if d.size > 8:  # ROS has no thin-prism/tilted model: keep the rational part
-        d = d[:8]
+    model, d = ros_distortion(D)
 
     def mat(name: str, m: np.ndarray) -> str:
         m = np.asarray(m, np.float64)
