@@ -98,6 +98,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._dirty = False
         self.calibration_controller: Optional[CalibrationController] = None
         self.help_dialog: Optional[HelpDialog] = None
+        self.recordings_dialog: Optional[RecordingsDialog] = None
         self.hand_eye: Optional[HandEyeController] = None
         self.pick_place: Optional[PickPlaceSequence] = None  # a marker's pick_place action, running
         self.recorder = None  # core.record.Recorder while the Record button is on
@@ -406,7 +407,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """☰ → Recordings…: what was recorded, and the command that replays it."""
         from core.record.recorder import list_recordings, recordings_dir
 
-        dialog = getattr(self, "recordings_dialog", None)
+        dialog = self.recordings_dialog
         if dialog is None:
             dialog = self.recordings_dialog = RecordingsDialog(str(recordings_dir()), parent=self)
             dialog.sigStopRequested.connect(self.on_stop_requested)

@@ -203,7 +203,7 @@ class HandEyeController(QtCore.QObject):
         truth = getattr(self.session.camera, "true_base_T_camera", None)
         if callable(truth) and getattr(res, "base_T_camera", None) is not None:
             t_mm, r_deg = pose_error(res.base_T_camera, truth())
-            res = _with_truth(res, t_mm, r_deg)
+            res = _TruthView(res, t_mm, r_deg)
             self.result = res
         self.wizard.show_result(res)
 
@@ -236,10 +236,6 @@ class _TruthView:
 
     def __getattr__(self, name):
         return getattr(self._res, name)
-
-
-def _with_truth(res, t_mm: float, r_deg: float):
-    return _TruthView(res, t_mm, r_deg)
 
 
 def _offset_text(offset_m) -> str:

@@ -61,6 +61,8 @@ from widgets._style import (
     touch_button,
     touch_combo,
 )
+from widgets._plots import static_bar_plot
+from widgets.estop import StopDialog
 
 PAGES = ("board", "capture", "results")
 METERS = (("x", "X"), ("y", "Y"), ("size", "Size"), ("skew", "Skew"))
@@ -227,7 +229,7 @@ class _Meter(QtWidgets.QWidget):
         return self.bar.value() / 100.0
 
 
-class CalibrationWizard(QtWidgets.QDialog):
+class CalibrationWizard(StopDialog):
     """The stereo calibration wizard (see the module docstring); fed by a worker's signals.
 
     Signals (all emitted from the GUI thread):
@@ -251,7 +253,6 @@ class CalibrationWizard(QtWidgets.QDialog):
     sigCalibrateRequested = QtCore.Signal()
     sigRemoveRequested = QtCore.Signal(object)
     sigSaveRequested = QtCore.Signal(object)
-    sigStopRequested = QtCore.Signal()
 
     def __init__(self, board: Optional[BoardSpec] = None, parent: Optional[QtWidgets.QWidget] = None) -> None:
         super().__init__(parent)
@@ -318,9 +319,6 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.set_estop(False)
 
     # ---------------------------------------------------------------------------- e-stop
-    def request_stop(self) -> None:
-        """STOP (the button or Esc): ask the owner to stop the arm, as often as it is asked."""
-        self.sigStopRequested.emit()
 
     def set_estop(self, engaged: bool) -> None:
         """Show the arm's e-stop state: STOP greyed out while stopped (this wizard never re-arms)."""
@@ -331,13 +329,6 @@ class CalibrationWizard(QtWidgets.QDialog):
         self.stop_button.setText("STOPPED" if self.estop_engaged else "STOP")
         self.stop_button.setEnabled(not self.estop_engaged)
 
-    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
-        """Esc is STOP, as in the main window, and does not close the wizard (Close does)."""
-        if event.key() == QtCore.Qt.Key.Key_Escape:
-            event.accept()
-            self.request_stop()
-            return
-        super().keyPressEvent(event)
 
     # ---------------------------------------------------------------------------- page 1: board
     def _build_board_page(self) -> QtWidgets.QWidget:
@@ -657,17 +648,7 @@ class CalibrationWizard(QtWidgets.QDialog):
         body.setSpacing(6)
         left = QtWidgets.QVBoxLayout()
         left.setSpacing(4)
-        self.error_plot = pg.PlotWidget()
-        self.error_plot.setMinimumHeight(110)
-        self.error_plot.setMenuEnabled(False)
-        self.error_plot.setMouseEnabled(x=False, y=False)
-        self.error_plot.hideButtons()
-        self.error_plot.setLabel("left", "error (px)")
-        self.error_plot.getAxis("left").enableAutoSIPrefix(False)
-        self.error_plot.setLabel("bottom", "capture")
-        self.error_plot.showGrid(y=True, alpha=0.3)
-        self._bars = pg.BarGraphItem(x=[], height=[], width=0.7, brushes=[])
-        self.error_plot.addItem(self._bars)
+        self.error_plot, self._bars = static_bar_plot("error (px)", "capture")
         self.error_plot.scene().sigMouseClicked.connect(self._on_plot_clicked)
         left.addWidget(self.error_plot, 3)
         self.pair_list = QtWidgets.QListWidget()

@@ -162,3 +162,26 @@ class RearmButton(HoldButton):
         super().__init__(f"RE-ARM\n(hold {hold_ms / 1000:g} s)", hold_ms=hold_ms, parent=parent)
         self.setStyleSheet(_REARM_STYLE.format(h=TOUCH_PX + 8, ok=OK_COLOUR))
         self.setToolTip(f"Hold for {hold_ms / 1000:g} s to re-arm the arm")
+
+
+class StopDialog(QtWidgets.QDialog):
+    """A dialog that may cover the window's STOP: Esc is STOP here too, as in the main window,
+    and never closes it (its Close button does).
+
+    Signals:
+    - sigStopRequested(): STOP asked for on this dialog (Esc, or a STOP button wired to
+      :meth:`request_stop`); the owner stops the arm, as often as it is asked.
+    """
+
+    sigStopRequested = QtCore.Signal()
+
+    def request_stop(self) -> None:
+        """Ask the owner to stop the arm."""
+        self.sigStopRequested.emit()
+
+    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
+        if event.key() == QtCore.Qt.Key.Key_Escape:
+            event.accept()
+            self.request_stop()
+            return
+        super().keyPressEvent(event)

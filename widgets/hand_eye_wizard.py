@@ -35,7 +35,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6 import QtCore, QtGui, QtWidgets
+from PySide6 import QtCore, QtWidgets
 
 from widgets._style import (
     show_adaptive,
@@ -50,6 +50,8 @@ from widgets._style import (
     touch_scroll_area,
 )
 from widgets.camera_view import CameraView, MarkerOverlay
+from widgets._plots import static_bar_plot
+from widgets.estop import StopDialog
 from widgets.help_dialog import EStopStrip
 
 PAGES = ("method", "run", "result")
@@ -189,7 +191,7 @@ def verdict_text(result) -> tuple[str, str]:
     return text, "error"
 
 
-class HandEyeWizard(QtWidgets.QDialog):
+class HandEyeWizard(StopDialog):
     """The camera → robot calibration wizard (see the module docstring); a view the app drives.
 
     Signals (all emitted from the GUI thread):
@@ -215,7 +217,6 @@ class HandEyeWizard(QtWidgets.QDialog):
     sigCancelRequested = QtCore.Signal()
     sigRecordPointRequested = QtCore.Signal()
     sigSaveRequested = QtCore.Signal()
-    sigStopRequested = QtCore.Signal()
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -270,22 +271,12 @@ class HandEyeWizard(QtWidgets.QDialog):
         self.set_estop(False)
 
     # ---------------------------------------------------------------------------- e-stop
-    def request_stop(self) -> None:
-        """STOP (the button or Esc): ask the owner to stop the arm, as often as it is asked."""
-        self.sigStopRequested.emit()
 
     def set_estop(self, engaged: bool) -> None:
         """Show the arm's e-stop state (STOP reads "STOPPED" while stopped; this wizard never re-arms)."""
         self.estop_engaged = bool(engaged)
         self.estop_strip.set_estop(self.estop_engaged)
 
-    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
-        """Esc is STOP, as in the main window, and does not close the wizard (Close does)."""
-        if event.key() == QtCore.Qt.Key.Key_Escape:
-            event.accept()
-            self.request_stop()
-            return
-        super().keyPressEvent(event)
 
     # ---------------------------------------------------------------------------- pages
     def set_page(self, name: str) -> None:
@@ -585,17 +576,7 @@ class HandEyeWizard(QtWidgets.QDialog):
         layout.addWidget(self.details_label)
         body = QtWidgets.QHBoxLayout()
         body.setSpacing(6)
-        self.residual_plot = pg.PlotWidget()
-        self.residual_plot.setMinimumHeight(110)
-        self.residual_plot.setMenuEnabled(False)
-        self.residual_plot.setMouseEnabled(x=False, y=False)
-        self.residual_plot.hideButtons()
-        self.residual_plot.setLabel("left", "residual (mm)")
-        self.residual_plot.getAxis("left").enableAutoSIPrefix(False)
-        self.residual_plot.setLabel("bottom", "pose")
-        self.residual_plot.showGrid(y=True, alpha=0.3)
-        self._bars = pg.BarGraphItem(x=[], height=[], width=0.7, brushes=[])
-        self.residual_plot.addItem(self._bars)
+        self.residual_plot, self._bars = static_bar_plot("residual (mm)", "pose")
         self._rms_line = pg.InfiniteLine(angle=0, movable=False,
                                          pen=pg.mkPen(OK_COLOUR, width=2, style=QtCore.Qt.PenStyle.DashLine),
                                          label="RMS", labelOpts={"position": 0.95, "color": OK_COLOUR})

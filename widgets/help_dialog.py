@@ -10,7 +10,7 @@ from typing import Sequence
 from PySide6 import QtCore, QtWidgets
 
 from widgets._style import ERROR_COLOUR, WARN_COLOUR, touch_button
-from widgets.estop import EStopButton, HoldButton
+from widgets.estop import EStopButton, HoldButton, StopDialog
 
 SHORTCUTS = (
     ("Esc", "STOP the arm (works in every dialog)"),
@@ -52,7 +52,7 @@ class EStopStrip(QtWidgets.QWidget):
             self.state_label.setStyleSheet("")
 
 
-class HelpDialog(QtWidgets.QDialog):
+class HelpDialog(StopDialog):
     """Version, shortcuts and "reset settings to defaults" (hold 1 s), with an e-stop strip.
 
     Signals:
@@ -60,7 +60,6 @@ class HelpDialog(QtWidgets.QDialog):
     - sigResetRequested(): "Reset settings to defaults" was held.
     """
 
-    sigStopRequested = QtCore.Signal()
     sigResetRequested = QtCore.Signal()
 
     def __init__(self, version: str, settings_file: str = "",
@@ -99,10 +98,3 @@ class HelpDialog(QtWidgets.QDialog):
     def set_reset_message(self, text: str) -> None:
         self.reset_label.setText(text)
 
-    def keyPressEvent(self, event) -> None:  # noqa: N802 (Qt override)
-        """Esc stops the arm (as in the window) instead of closing the dialog."""
-        if event.key() == QtCore.Qt.Key.Key_Escape:
-            self.sigStopRequested.emit()
-            event.accept()
-            return
-        super().keyPressEvent(event)

@@ -11,10 +11,11 @@ from typing import Sequence
 from PySide6 import QtCore, QtWidgets
 
 from widgets._style import TOUCH_PX, touch_button
+from widgets.estop import StopDialog
 from widgets.help_dialog import EStopStrip
 
 
-class RecordingsDialog(QtWidgets.QDialog):
+class RecordingsDialog(StopDialog):
     """A list of recordings (newest first); tapping one shows the command that replays it.
 
     ``set_recordings(infos)`` takes objects with ``path``, ``started`` (datetime or None),
@@ -24,7 +25,6 @@ class RecordingsDialog(QtWidgets.QDialog):
     - sigStopRequested(): STOP on the dialog.
     """
 
-    sigStopRequested = QtCore.Signal()
 
     def __init__(self, folder: str = "", parent: QtWidgets.QWidget | None = None):
         super().__init__(parent)
@@ -72,9 +72,3 @@ class RecordingsDialog(QtWidgets.QDialog):
             self.command_label.setText(f"Replay it through the whole pipeline with:\n{self.command_for(row)}"
                                        "\n(add --headless --fast --json to score it without a window)")
 
-    def keyPressEvent(self, event) -> None:  # noqa: N802 (Qt override)
-        if event.key() == QtCore.Qt.Key.Key_Escape:  # Esc stops the arm, as everywhere
-            self.sigStopRequested.emit()
-            event.accept()
-            return
-        super().keyPressEvent(event)
