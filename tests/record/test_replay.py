@@ -226,3 +226,16 @@ def test_the_camera_spec_names_a_recording_by_string():
     assert parse_camera_spec("replay:/data/run1") == ("replay", ("/data/run1",))
     with pytest.raises(ValueError, match="name the recording"):
         parse_camera_spec("replay:")
+
+
+def test_a_replay_never_drives_a_real_arm(recording):
+    """A recorded scene is not on the desk: a real bridge is refused at start and on a switch."""
+    path = recording.path
+    with pytest.raises(ValueError, match="drives only the simulated arm"):
+        DeskSession.create(SessionOptions(camera=f"replay:{path}", bridge="v2:/dev/deskarm-no-such-port"))
+    session = DeskSession.create(SessionOptions(camera=f"replay:{path}"))
+    try:
+        assert "replay" in session.real_arm_refusal("v2:/dev/ttyACM0")
+        assert session.real_arm_refusal("sim://") == ""
+    finally:
+        session.close()
