@@ -30,6 +30,7 @@ class ObjectTruth:
     visible_left: bool  # fully inside the left image and not occluded
     visible_right: bool
     label: str = ""  # e.g. "cup A (ball)"
+    kind: str = "marker"  # "marker" (cards, cups with markers), "ball" (the cups game's), or a thing's kind
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,22 @@ class PerceptionResult:
     disparity: Optional[np.ndarray] = None  # float32 px, rectified left, when requested
     ball_left_px: Optional[tuple[float, float]] = None  # cups game: red ball in the left image
     reused: bool = False  # the frame was ``repeated``: the previous answer, re-stamped, nothing computed
+    # marker-less objects of this frame (``core.detect.stereo.ObjectObservation``), when an object
+    # perception runs (``--detector``); typed loosely so that messages never import a wing
+    objects: tuple = ()
+
+    def object_observation(self, object_id: Optional[int] = None, label: Optional[str] = None):
+        """The object with ``object_id`` (when given) or else the first one labelled ``label``
+        (triangulated ones first), None when there is none."""
+        if object_id is not None:
+            for o in self.objects:
+                if o.object_id == object_id:
+                    return o
+        if label:
+            found = [o for o in self.objects if o.label == label or o.kind == label]
+            found.sort(key=lambda o: (not o.triangulated, o.object_id))
+            return found[0] if found else None
+        return None
 
     def marker(self, marker_id: int) -> Optional[MarkerObservation]:
         for m in self.markers:
@@ -101,6 +118,7 @@ class TargetMode(str, Enum):
     FOLLOW = "follow"  # follow one marker id
     LISSAJOUS = "lissajous"  # trajectory generator
     CUPS = "cups"  # point at the cup hiding the ball (the original game)
+    OBJECT = "object"  # follow a marker-less object (by track id, or by label / class)
 
 
 @dataclass(frozen=True)

@@ -122,6 +122,9 @@ class Targeter:
         self.manual_rpy: Optional[tuple[float, float, float]] = None  # 6-DOF arms: tool orientation
         self.manual_grip_m: Optional[float] = None
         self.follow_id = int(follow_id)
+        # OBJECT mode: a marker-less object, by its track id and/or its label ("red ball") or kind
+        self.follow_object_label: str = ""
+        self.follow_object_id: Optional[int] = None
         self.lissajous = _checked_lissajous(lissajous or LissajousParams())
         self.lissajous_running = False
         self._lissajous_t0 = 0.0
@@ -168,6 +171,14 @@ class Targeter:
             self.follow_id = int(marker_id)
 
     @_user_input
+    def set_follow_object(self, label: str = "", object_id: Optional[int] = None) -> None:
+        """Follow a marker-less object (OBJECT mode): its track ``object_id`` when given, else (or
+        once that track is gone) the nearest object labelled ``label`` (a label or a kind)."""
+        with self._lock:
+            self.follow_object_label = str(label or "")
+            self.follow_object_id = None if object_id is None else int(object_id)
+
+    @_user_input
     def set_lissajous(self, params: LissajousParams) -> None:
         """The Lissajous curve; ValueError naming the field for a NaN or infinite parameter."""
         params = _checked_lissajous(params)
@@ -209,6 +220,8 @@ class Targeter:
                 return Goal(self._seq.next(), t, as_point(p), mode, source_t)
             if mode is TargetMode.FOLLOW:
                 return self._goal_for_marker(self.follow_id, result, mode, t, source_t)
+            if mode is TargetMode.OBJECT:
+                return self._goal_for_object(result, mode, t, source_t)
             # cups game
             self._update_ball_cup(result)
             if self.ball_cup_id is None:
@@ -226,6 +239,19 @@ class Targeter:
             return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
                         note=f"marker {marker_id} position is not finite — holding")
         return Goal(self._seq.next(), t, p, mode, source_t, note=f"marker {marker_id}")
+
+    def _goal_for_object(self, result, mode, t, source_t) -> Goal:
+        obs = None if result is None else result.object_observation(self.follow_object_id,
+                                                                     self.follow_object_label)
+        what = self.follow_object_label or f"object {self.follow_object_id}"
+        if obs is None or obs.base_p is None or not obs.triangulated:
+            return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                        note=f"{what} not seen — holding")
+        p = self.pointing.apply(obs.base_p)
+        if not all(map(math.isfinite, p)):
+            return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                        note=f"{what} position is not finite — holding")
+        return Goal(self._seq.next(), t, p, mode, source_t, note=f"{obs.label} #{obs.object_id}")
 
     def _update_ball_cup(self, result: Optional[PerceptionResult]) -> None:
         """When the ball is visible, the cup nearest to it (in the left image) hides it next."""

@@ -850,10 +850,12 @@ class SimDesk:
                                        vis["right"].get(cup.marker_id, False), label=cup.label))
         if st.ball is not None:
             objects.append(ObjectTruth(-1, (float(st.ball.x), float(st.ball.y), BALL_RADIUS_M),
-                                       vis["left"].get(-1, False), vis["right"].get(-1, False), label="ball"))
+                                       vis["left"].get(-1, False), vis["right"].get(-1, False), label="ball",
+                                       kind="ball"))
         for th in st.things:  # marker-less things: negative ids, "<colour> <kind>" labels
             objects.append(ObjectTruth(th.truth_id, th.centre, vis["left"].get(th.truth_id, False),
-                                       vis["right"].get(th.truth_id, False), label=th.label))
+                                       vis["right"].get(th.truth_id, False), label=th.label,
+                                       kind=th.kind))
         return GroundTruth(objects=tuple(objects), pointing_target_id=st.pointing_target_id)
 
     def truth(self, t: float, arm_points: Optional[np.ndarray] = None) -> GroundTruth:
