@@ -76,7 +76,7 @@ class SimStereoCamera(ClockPacedSource):
 
     kind = "sim"
 
-    def __init__(self, scenario: str = "static", fps: float = 30.0, clock=None, seed: int = 0,
+    def __init__(self, scenario="static", fps: float = 30.0, clock=None, seed: int = 0,
                  marker_ids=(23, 50), rig=None, skew_s: float = 0.0, **desk_options):
         super().__init__(clock)
         if not (1.0 <= fps <= 240.0):
@@ -84,7 +84,7 @@ class SimStereoCamera(ClockPacedSource):
         self._skew_s = _check_skew(skew_s)
         self.rig = rig or SimRig()
         self.desk = SimDesk(self.rig, scenario=scenario, marker_ids=marker_ids, seed=seed, **desk_options)
-        self.scenario = scenario
+        self.scenario = self.desk.scenario  # the name (also when a Scenario instance was given)
         self.fps = float(fps)
         self._seq = SequenceCounter()
         self._t0 = 0.0
@@ -345,7 +345,7 @@ class SimStereoCamera(ClockPacedSource):
 
         rig = SimRig(_replace(self.rig.config, mount_offset=check_rig_offset(offset)))
         old = self.desk
-        desk = SimDesk(rig, scenario=old.scenario, marker_ids=old.marker_ids, marker_size_m=old.marker_size_m,
+        desk = SimDesk(rig, scenario=old.scenario_object, marker_ids=old.marker_ids, marker_size_m=old.marker_size_m,
                        seed=old.seed, blur_sigma_px=old.blur_sigma_px, noise_sigma=old.noise_sigma)
         desk.set_camera_settings(old.settings)
         if old.tool_marker is not None:

@@ -1,9 +1,14 @@
 """The simulated desk: renders what the simulated stereo rig sees, with exact ground truth.
 
 A wood-textured desk (warped once per camera and cached), ArUco markers lying on it or on
-upside-down cups, a ball, marker-less things (shaded balls, a plush, discs, cups), a passing hand
+upside-down cups, a ball, marker-less things (shaded balls, a plush, discs, cups), lift panels
+(a brushed-steel plate whose 9 buttons carry digit textures) and door handles, a passing hand
 and the arm drawn from its chain points — painted far to near — then the camera's image controls
 (one LUT), lens blur and sensor noise.
+
+Truth per object: ``render``/``truth`` give each object's 3D point and whether it is fully in
+view and uncovered; ``image_boxes`` gives the pixel box of what is visible of it in each view
+(for training and scoring detectors).
 
 Geometry is exact: a marker corner at robot_base point P lands at ``rig.project(side, P)``
 (OpenCV's pixel-centre convention, pixel (0, 0) centred at 0.0). Markers are warped from a
@@ -22,7 +27,7 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Union
 
 import cv2
 import numpy as np
@@ -38,14 +43,17 @@ from core.sim.scenarios import (
     SCENARIOS,
     Card,
     Cup,
+    DoorHandle,
     Hand,
+    Panel,
+    Scenario,
     SceneState,
     Thing,
     make_scenario,
     scenario_names,
 )
 
-__all__ = ["SimDesk", "SCENARIOS", "scenario_names", "desk_texture"]
+__all__ = ["SimDesk", "ImageBox", "SCENARIOS", "scenario_names", "desk_texture", "panel_texture", "button_texture"]
 
 SIDES = ("left", "right")
 
@@ -87,6 +95,22 @@ ARM_BASE_COLOUR = (58, 58, 62)
 ARM_TOOL_COLOUR = (0, 150, 255)  # orange tool tip
 HAND_COLOUR = (130, 148, 172)  # greyish skin
 HAND_DARK = (100, 116, 138)
+
+PANEL_METAL = 176  # brushed steel plate, grey level of its top before shading
+PANEL_SIDE_COLOUR = (150, 152, 156)
+PANEL_EDGE_COLOUR = (88, 90, 94)
+PANEL_TEXTURE_M_PER_PX = 0.0004  # the plate's texture resolution (0.4 mm)
+PANEL_SUPERSAMPLE = 2
+BUTTON_TEXTURE_PX = 96  # a button face's texture is this many px across
+BUTTON_FACE = (40, 38, 36)  # BGR, dark face
+BUTTON_RING = (222, 222, 224)  # bright chrome ring
+BUTTON_RING_LIT = (60, 190, 255)  # amber: the lit (selected) ring
+BUTTON_DIGIT = (250, 250, 250)
+BUTTON_RING_FRAC = 0.78  # the ring spans this fraction of the radius … 1
+BUTTON_SIDE_COLOUR = (110, 112, 116)
+HANDLE_COLOUR = (172, 174, 178)  # satin stainless
+HANDLE_HIGHLIGHT = (232, 233, 236)
+HANDLE_EDGE = (84, 86, 90)
 
 ARM_BASE_RADIUS_M = 0.045
 ARM_LINK_RADII_M = (0.021, 0.014, 0.011)  # base tower, upper arm, forearm (last repeats)
@@ -189,8 +213,134 @@ def marker_texture(dictionary, marker_id: int, clip_radius_frac: Optional[float]
     return np.clip(bgra + 0.5, 0, 255).astype(np.uint8)
 
 
+@functools.lru_cache(maxsize=8)
+def panel_texture(panel_key: tuple, m_per_px: float = PANEL_TEXTURE_M_PER_PX) -> tuple[np.ndarray, np.ndarray]:
+    """(premultiplied BGRA texture, A) of a panel plate's top face: brushed steel, a dark gap
+    round each button's hole, a screw in each corner, a bevelled edge.
+
+    ``panel_key``: (width_m, length_m, button_radius_m, ((u, v) of each button)). Row 0 is the
+    plate's +v edge, column 0 its −u edge; ``A`` maps texel (col, row, 1) to the panel frame (u, v, 1).
+    """
+    width, length, radius, holes = panel_key
+    w, h = int(round(width / m_per_px)), int(round(length / m_per_px))
+    rng = np.random.default_rng(77)
+    # brushing: fine streaks along u (rows differ, columns barely), a slow sheen across the plate
+    streaks = rng.standard_normal((h, max(8, w // 24))).astype(np.float32)
+    streaks = cv2.resize(streaks, (w, h), interpolation=cv2.INTER_LINEAR)
+    streaks = cv2.GaussianBlur(streaks, (0, 0), sigmaX=6.0, sigmaY=0.6)
+    streaks /= float(streaks.std()) + 1e-9
+    speck = cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0), 0.7)
+    speck /= float(speck.std()) + 1e-9
+    us = (np.arange(w, dtype=np.float32) + 0.5) * m_per_px - width / 2
+    vs = length / 2 - (np.arange(h, dtype=np.float32) + 0.5) * m_per_px
+    sheen = 1.0 + 0.06 * np.cos((us[None, :] * 0.6 + vs[:, None]) / length * 2 * math.pi)
+    grey = PANEL_METAL * sheen * (1.0 + 0.045 * streaks + 0.02 * speck)
+    bgr = np.stack([grey * 1.02, grey, grey * 0.98], axis=-1)  # a cool steel tint
+    # bevel: a darker and a lighter strip along the edges
+    bevel = max(2, int(round(0.0015 / m_per_px)))
+    bgr[:bevel, :] *= 1.12
+    bgr[:, :bevel] *= 1.08
+    bgr[-bevel:, :] *= 0.80
+    bgr[:, -bevel:] *= 0.84
+
+    def at(u: float, v: float) -> tuple[float, float]:
+        return ((u + width / 2) / m_per_px - 0.5, (length / 2 - v) / m_per_px - 0.5)
+
+    img = np.ascontiguousarray(np.clip(bgr, 0, 255)).astype(np.float32)
+    sh = 4  # fixed-point bits for sub-texel circles
+    for u, v in holes:  # the gap between a button and its hole: a dark ring, a lighter lip
+        cu, cv_ = at(u, v)
+        centre = (int(round(cu * 16)), int(round(cv_ * 16)))
+        cv2.circle(img, centre, int(round((radius + 0.0022) / m_per_px * 16)), (150, 152, 156), -1, cv2.LINE_AA, sh)
+        cv2.circle(img, centre, int(round((radius + 0.0012) / m_per_px * 16)), (38, 38, 40), -1, cv2.LINE_AA, sh)
+    for su in (-1, 1):
+        for sv in (-1, 1):
+            cu, cv_ = at(su * (width / 2 - 0.008), sv * (length / 2 - 0.008))
+            centre = (int(round(cu * 16)), int(round(cv_ * 16)))
+            cv2.circle(img, centre, int(round(0.0028 / m_per_px * 16)), (96, 98, 100), -1, cv2.LINE_AA, sh)
+            cv2.circle(img, centre, int(round(0.0022 / m_per_px * 16)), (200, 202, 204), -1, cv2.LINE_AA, sh)
+            a = 0.7 * su * sv  # the screw's slot
+            d = np.array([math.cos(a), math.sin(a)]) * 0.0018 / m_per_px
+            p0 = (int(round((cu - d[0]) * 16)), int(round((cv_ - d[1]) * 16)))
+            p1 = (int(round((cu + d[0]) * 16)), int(round((cv_ + d[1]) * 16)))
+            cv2.line(img, p0, p1, (70, 70, 72), max(1, int(round(0.0006 / m_per_px))), cv2.LINE_AA, sh)
+    bgra = np.dstack([img, np.full((h, w), 255.0, np.float32)])
+    tex = np.clip(bgra + 0.5, 0, 255).astype(np.uint8)
+    A = np.array([[m_per_px, 0.0, 0.5 * m_per_px - width / 2],
+                  [0.0, -m_per_px, length / 2 - 0.5 * m_per_px],
+                  [0.0, 0.0, 1.0]])
+    tex.setflags(write=False)
+    return tex, A
+
+
+@functools.lru_cache(maxsize=32)
+def button_texture(number: int, lit: bool, px: int = BUTTON_TEXTURE_PX) -> np.ndarray:
+    """Premultiplied BGRA texture of a push button's round top face: a dark face, a bright ring
+    (amber when lit) and the white digit ``number``, upright (row 0 is the digit's top)."""
+    S = 4  # drawn at 4× and area-averaged: smooth digit edges
+    n = px * S
+    c = (n - 1) / 2.0
+    face = np.zeros((n, n, 3), np.uint8)
+    face[:] = BUTTON_FACE
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+    dist = np.hypot(xx - c, yy - c)
+    ring = dist >= BUTTON_RING_FRAC * n / 2
+    face[ring] = BUTTON_RING_LIT if lit else BUTTON_RING
+    face[(dist >= BUTTON_RING_FRAC * n / 2 - 1.5 * S) & ~ring] = (20, 20, 20)  # the ring's inner edge
+    text = str(int(number))
+    font = cv2.FONT_HERSHEY_DUPLEX
+    thick = max(1, int(round(n * 0.085)))  # bold strokes: still legible ~15 px across in a view
+    _, th = cv2.getTextSize(text, font, 1.0, 1)[0]
+    scale = 0.62 * n / th  # the digit is 62 % of the face's width tall
+    (tw, th), _ = cv2.getTextSize(text, font, scale, thick)
+    org = (int(round(c - tw / 2)), int(round(c + th / 2)))
+    cv2.putText(face, text, org, font, scale, BUTTON_DIGIT, thick, cv2.LINE_AA)
+    face = cv2.resize(face, (px, px), interpolation=cv2.INTER_AREA).astype(np.float32)
+    cs = (px - 1) / 2.0
+    yy, xx = np.mgrid[0:px, 0:px].astype(np.float32)
+    alpha = np.clip(px / 2.0 - np.hypot(xx - cs, yy - cs) + 0.5, 0.0, 1.0)
+    bgra = np.dstack([face * alpha[..., None], 255.0 * alpha])
+    tex = np.clip(bgra + 0.5, 0, 255).astype(np.uint8)
+    tex.setflags(write=False)
+    return tex
+
+
 # ----------------------------------------------------------------------------------------------
 # per-view drawing lists
+
+
+@dataclass(frozen=True)
+class ImageBox:
+    """Where an object is visible in one camera image (``SimDesk.image_boxes``): detector training truth.
+
+    The box is in whole pixels, slice style: the visible pixels are ``img[y0:y1, x0:x1]`` (so
+    ``x1 − x0`` is the width in px; in OpenCV's pixel-centre convention the box spans
+    x0 − 0.5 … x1 − 0.5). It bounds only the part that is visible: clipped to the image and
+    without what nearer things cover.
+    """
+
+    truth_id: int  # ObjectTruth.marker_id
+    x0: int  # first visible column
+    y0: int  # first visible row
+    x1: int  # last visible column + 1
+    y1: int  # last visible row + 1
+    visible_fraction: float  # visible px / px of the whole silhouette (unclipped, unoccluded), 0…1
+    visible_px: int  # how many pixels of the object are visible
+    kind: str  # ObjectTruth.kind: "ball", "plush", "disc", "cup", "button", "handle", "marker"
+    label: str  # ObjectTruth.label, e.g. "red ball", "button 5"
+
+    @property
+    def width(self) -> int:
+        return self.x1 - self.x0
+
+    @property
+    def height(self) -> int:
+        return self.y1 - self.y0
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        """The box's centre in OpenCV's pixel-centre convention (px)."""
+        return ((self.x0 + self.x1) / 2 - 0.5, (self.y0 + self.y1) / 2 - 0.5)
 
 
 @dataclass
@@ -207,6 +357,9 @@ class _Item:
     shapes: list = field(default_factory=list)  # filled polygons, in order
     lines: list = field(default_factory=list)  # (pts, colour, closed) decoration, 1 px AA
     marker: Optional[tuple] = None  # (marker_id, H_img_tex, corners_px (4,2), disc) to composite
+    # more textures to composite after the marker: (BGRA premultiplied texture, H_img_tex, outline px (M,2),
+    # supersample); the outline bounds the texture's opaque part (it occludes like a shape)
+    textures: list = field(default_factory=list)
     target: Optional[int] = None  # truth key: a marker id, or -1 for the ball
     target_region: Optional[np.ndarray] = None  # image px polygon that must stay uncovered
     target_corners: Optional[np.ndarray] = None  # image px points that must be inside the image
@@ -327,13 +480,16 @@ class _View:
 class SimDesk:
     """Renders the simulated desk into the rig's two cameras, with ground truth.
 
-    ``render(t, arm_points)`` gives (left, right, GroundTruth) for scenario time t (s).
+    ``render(t, arm_points)`` gives (left, right, GroundTruth) for scenario time t (s);
+    ``image_boxes(t, arm_points)`` the visible part of each object as a pixel box per view.
+    ``scenario`` is a scenario name or any ``Scenario`` instance (e.g. one that returns a
+    SceneState a data generator built).
     Deterministic: the same seed, settings, t and arm give identical images.
     """
 
     ball_colour_bgr = BALL_COLOUR  # the ball's body colour (its shading varies ±25 % around it)
 
-    def __init__(self, rig: SimRig, scenario: str = "static", marker_ids: Sequence[int] = (23, 50),
+    def __init__(self, rig: SimRig, scenario: Union[str, Scenario] = "static", marker_ids: Sequence[int] = (23, 50),
                  marker_size_m: float = 0.04, seed: int = 0, blur_sigma_px: float = 0.6,
                  noise_sigma: float = 2.0, tool_marker=None):
         ids = tuple(int(i) for i in marker_ids)
@@ -400,10 +556,28 @@ class SimDesk:
             return None
         return arm[-1] + np.asarray(self.tool_marker[1])
 
-    def set_scenario(self, name: str) -> None:
-        """Switch to scenario ``name`` (one of ``scenario_names()``); time restarts at its t."""
-        self._scenario = make_scenario(name, self.marker_ids, self.seed)
-        self.scenario = name
+    def set_scenario(self, scenario: Union[str, Scenario]) -> None:
+        """Switch to scenario ``scenario``: a name (one of ``scenario_names()``), built with this
+        desk's marker ids and seed, or a ready ``Scenario`` instance (a data generator's own scene,
+        e.g. a subclass whose ``state(t)`` returns a fixed SceneState). Time restarts at its t.
+
+        ``self.scenario`` is the name (the instance's ``name``, or its class name when it has
+        none); ``self.scenario_object`` is the Scenario itself.
+        """
+        if isinstance(scenario, Scenario):
+            self._scenario = scenario
+            self.scenario = scenario.name or type(scenario).__name__
+            return
+        if not isinstance(scenario, str):
+            raise TypeError(f"scenario must be a name ({', '.join(scenario_names())}) or a core.sim.scenarios."
+                            f"Scenario instance, got {type(scenario).__name__}")
+        self._scenario = make_scenario(scenario, self.marker_ids, self.seed)
+        self.scenario = scenario
+
+    @property
+    def scenario_object(self) -> Scenario:
+        """The Scenario that ``scene(t)`` asks (pass it to another SimDesk to show the same scene)."""
+        return self._scenario
 
     @property
     def settings(self) -> CameraSettings:
@@ -644,6 +818,90 @@ class SimDesk:
             return self._disc_item(view, th)
         return self._plain_cup_item(view, th)
 
+    def _panel_items(self, view: _View, panel: Panel) -> list:
+        """The plate (a shaded box, its top a brushed-steel texture) and its 9 buttons (short dark
+        cylinders, each top face a texture with its digit), buttons painted just after the plate."""
+        top = panel.top_z
+        hw, hl = panel.width_m / 2, panel.length_m / 2
+        local = np.array([[-hw, hl], [hw, hl], [hw, -hl], [-hw, -hl]])  # +v edge first, clockwise from above
+        top3 = self._local_to_base((panel.x, panel.y, top, panel.yaw), local)
+        bot3 = top3 * np.array([1.0, 1.0, 0.0])
+        p_top, _ = view.project(top3)
+        p_bot, _ = view.project(bot3)
+        _, depth = view.project(np.array([[panel.x, panel.y, top / 2]]))
+        depth = float(depth[0])
+        hull = cv2.convexHull(np.vstack([p_top, p_bot]).astype(np.float32))[:, 0, :].astype(np.float64)
+        shapes = [_Shape(hull, PANEL_EDGE_COLOUR)]
+        c, sn = math.cos(panel.yaw), math.sin(panel.yaw)
+        for i in range(4):  # the sides facing the camera, Lambert-shaded
+            j = (i + 1) % 4
+            mid = (top3[i] + top3[j]) / 2 - np.array([0.0, 0.0, top / 2])
+            outward = mid - np.array([panel.x, panel.y, mid[2]])
+            normal = outward / np.linalg.norm(outward)
+            if normal @ (view.cam_pos - mid) <= 0:
+                continue
+            shade = AMBIENT + 0.75 * max(0.0, float(normal @ LIGHT))
+            shapes.append(_Shape(np.array([p_bot[i], p_bot[j], p_top[j], p_top[i]]), _shade(PANEL_SIDE_COLOUR, shade)))
+        holes = tuple(panel.button_uv(n) for n in panel.BUTTONS)
+        tex, A = panel_texture((float(panel.width_m), float(panel.length_m), float(panel.button_radius_m), holes))
+        R = np.array([[c, -sn, panel.x], [sn, c, panel.y], [0.0, 0.0, 1.0]])
+        H = view.plane_homography(top) @ R @ A
+        items = [_Item(depth=depth, shapes=shapes, textures=[(tex, H, p_top, PANEL_SUPERSAMPLE)])]
+        r = panel.button_radius_m
+        n_px = BUTTON_TEXTURE_PX
+        s = 2 * r / n_px
+        A_button = np.array([[s, 0.0, 0.5 * s - r], [0.0, -s, r - 0.5 * s], [0.0, 0.0, 1.0]])  # rows towards −v
+        for n in panel.BUTTONS:
+            bx, by, z_top = panel.button_centre(n)
+            ring = np.column_stack([bx + r * _CIRCLE32[:, 0], by + r * _CIRCLE32[:, 1], np.full(len(_CIRCLE32), z_top)])
+            p_face, _ = view.project(ring)
+            p_foot, _ = view.project(ring * np.array([1.0, 1.0, 0.0]) + np.array([0.0, 0.0, top]))
+            side = cv2.convexHull(np.vstack([p_face, p_foot]).astype(np.float32))[:, 0, :].astype(np.float64)
+            Rb = np.array([[c, -sn, bx], [sn, c, by], [0.0, 0.0, 1.0]])
+            Hb = view.plane_homography(z_top) @ Rb @ A_button
+            tex_b = button_texture(n, n in panel.lit)
+            items.append(_Item(depth=depth - 1e-4 * n, shapes=[_Shape(side, BUTTON_SIDE_COLOUR)],
+                               textures=[(tex_b, Hb, p_face, SUPERSAMPLE)], target=panel.button_truth_id(n),
+                               target_region=p_face, target_corners=side))
+        return items
+
+    def _handle_item(self, view: _View, hd: DoorHandle) -> _Item:
+        """A lever handle: a round rose on the desk, a neck and a rounded bar (shaded like the arm's links)."""
+        # (the frustums' outline lines are left out: an item's lines are drawn over all its shapes,
+        # the bar included)
+        shapes, _, _, rose_hull = self._frustum_parts(view, hd.x, hd.y, 0.0, hd.rose_height_m,
+                                                          hd.rose_radius_m * 0.9, hd.rose_radius_m, HANDLE_COLOUR,
+                                                          _shade(HANDLE_COLOUR, 1.02))
+        neck_shapes, _, _, _ = self._frustum_parts(view, hd.x, hd.y, hd.rose_height_m,
+                                                            hd.bar_height_m - hd.rose_height_m, hd.neck_radius_m,
+                                                            hd.neck_radius_m, HANDLE_COLOUR, HANDLE_COLOUR)
+        shapes += neck_shapes
+        ends3 = np.array([hd.along(0.0), hd.along(hd.length_m)])
+        (a, b), d = view.project(ends3)
+        seg = b - a
+        length = float(np.hypot(*seg))
+        r = hd.thickness_m / 2
+        wa, wb = view.f * r / d[0], view.f * r / d[1]
+        u = seg / max(length, 1e-9)
+        perp = np.array([-u[1], u[0]])
+        l0, _ = view.project(np.array([ends3[0], ends3[0] + 0.05 * LIGHT]))
+        if perp @ (l0[1] - l0[0]) < 0:
+            perp = -perp  # perp points towards the light
+
+        def quad(k: float, off: float) -> np.ndarray:
+            return np.array([a + perp * wa * (off + k), b + perp * wb * (off + k),
+                             b + perp * wb * (off - k), a + perp * wa * (off - k)])
+
+        bar = [quad(1.0, 0.0), a + wa * _CIRCLE32, b + wb * _CIRCLE32]
+        shapes += [_Shape(p, HANDLE_EDGE) for p in bar]
+        shapes += [_Shape(quad(0.8, 0.0), HANDLE_COLOUR), _Shape(a + 0.8 * wa * _CIRCLE32, HANDLE_COLOUR),
+                   _Shape(b + 0.8 * wb * _CIRCLE32, HANDLE_COLOUR), _Shape(quad(0.25, 0.38), HANDLE_HIGHLIGHT)]
+        bar_hull = cv2.convexHull(np.vstack(bar).astype(np.float32))[:, 0, :].astype(np.float64)
+        outline = cv2.convexHull(np.vstack([bar_hull, rose_hull]).astype(np.float32))[:, 0, :].astype(np.float64)
+        _, depth = view.project(np.array([hd.centre]))
+        return _Item(depth=float(depth[0]), shapes=shapes, target=hd.truth_id, target_region=bar_hull,
+                     target_corners=outline)
+
     def _arm_items(self, view: _View, pts3: np.ndarray) -> tuple[list, list]:
         """(flat items, 3D items) for the arm's chain points (N, 3)."""
         p, d = view.project(pts3)
@@ -733,6 +991,21 @@ class SimDesk:
             polys.append(circ)
         for th in st.things:
             polys.append(self._thing_shadow(th, on_desk))
+        for panel in st.panels:  # the plate (the buttons' shadows fall on it and are left out)
+            hw, hl = panel.width_m / 2, panel.length_m / 2
+            local = np.array([[-hw, hl], [hw, hl], [hw, -hl], [-hw, -hl]])
+            box = self._local_to_base((panel.x, panel.y, panel.top_z, panel.yaw), local)
+            polys.append(self._dropped_hull(np.vstack([box, box * [1.0, 1.0, 0.0]]), on_desk))
+        for hd in st.handles:
+            cs, sn = _CIRCLE32[:, 0], _CIRCLE32[:, 1]
+            rose = np.column_stack([hd.x + hd.rose_radius_m * cs, hd.y + hd.rose_radius_m * sn,
+                                    np.full(len(cs), hd.rose_height_m)])
+            polys.append(self._dropped_hull(rose, on_desk))
+            r = hd.thickness_m / 2
+            across = r * np.array([-math.sin(hd.yaw), math.cos(hd.yaw), 0.0])  # half the bar's width
+            bar = [np.array(hd.along(along, hd.bar_height_m + dz)) + k * across
+                   for along in (-r, hd.length_m + r) for dz in (-r, r) for k in (-1.0, 1.0)]
+            polys.append(self._dropped_hull(np.array(bar), on_desk))
         for hand in st.hands:
             pose = (hand.x, hand.y, hand.z, hand.yaw)
             for outline in _HAND_OUTLINES:
@@ -754,6 +1027,13 @@ class SimDesk:
                 polys.append(np.column_stack([sh[i, 0] + r * _CIRCLE32[:, 0], sh[i, 1] + r * _CIRCLE32[:, 1],
                                               np.zeros(len(_CIRCLE32))]))
         return polys
+
+    @staticmethod
+    def _dropped_hull(pts: np.ndarray, on_desk) -> np.ndarray:
+        """The hull (M, 3) on the desk of points (N, 3) dropped along the light."""
+        flat = on_desk(pts)
+        hull = cv2.convexHull(flat[:, :2].astype(np.float32))[:, 0, :].astype(np.float64)
+        return np.column_stack([hull, np.zeros(len(hull))])
 
     @staticmethod
     def _thing_shadow(th: Thing, on_desk) -> np.ndarray:
@@ -790,6 +1070,9 @@ class SimDesk:
             if ball_cup is not None or not st.cups:  # under a resting cup it cannot be seen
                 solid.append(self._ball_item(view, st.ball.x, st.ball.y))
         solid += [self._thing_item(view, th) for th in st.things]
+        for panel in st.panels:
+            solid += self._panel_items(view, panel)
+        solid += [self._handle_item(view, hd) for hd in st.handles]
         for hand in st.hands:
             item = self._hand_item(view, hand)
             if item is not None:
@@ -804,6 +1087,20 @@ class SimDesk:
         w, h = size
         m = EDGE_MARGIN_PX
         out = {}
+        if not any(it.target is not None for it in items):
+            return out
+        # what each occluder covers: its polygons with their bounds, and the bounds of them all,
+        # computed once (with a dozen targets the pairwise tests dominated the render)
+        covers: list = []
+        for it in items:
+            polys = self._silhouettes(it) if it.occluder else []
+            bounded = [(pts, pts.min(axis=0), pts.max(axis=0)) for pts in polys]
+            if bounded:
+                lo = np.min([b[1] for b in bounded], axis=0)
+                hi = np.max([b[2] for b in bounded], axis=0)
+                covers.append((bounded, lo, hi))
+            else:
+                covers.append(None)
         for idx, it in enumerate(items):
             if it.target is None:
                 continue
@@ -817,45 +1114,49 @@ class SimDesk:
             x1, y1 = np.ceil(reg.max(axis=0)).astype(int) + 2
             x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
             origin = np.array([x0, y0], dtype=float)
-            target = np.zeros((y1 - y0, x1 - x0), np.uint8)
-            _fill(target, reg - origin, 255, aa=False)
-            cover = np.zeros_like(target)
-            any_cover = False
-            for later in items[idx + 1:]:
-                if not later.occluder:
+            target = None
+            cover = None
+            for later in covers[idx + 1:]:
+                if later is None:
                     continue
-                shapes = list(later.shapes)
-                if later.marker is not None:  # a card on top of another card hides it too
-                    shapes.append(_Shape(later.marker[2], 255))
-                for sh in shapes:
-                    lo, hi = sh.pts.min(axis=0), sh.pts.max(axis=0)
+                bounded, lo, hi = later
+                if hi[0] < x0 or lo[0] > x1 or hi[1] < y0 or lo[1] > y1:
+                    continue
+                for pts, lo, hi in bounded:  # a card on top of another card hides it too
                     if hi[0] < x0 or lo[0] > x1 or hi[1] < y0 or lo[1] > y1:
                         continue
-                    _fill(cover, sh.pts - origin, 255, aa=False)
-                    any_cover = True
-            out[it.target] = not (any_cover and cv2.countNonZero(cv2.bitwise_and(target, cover)) > 0)
+                    if cover is None:
+                        target = np.zeros((y1 - y0, x1 - x0), np.uint8)
+                        _fill(target, reg - origin, 255, aa=False)
+                        cover = np.zeros_like(target)
+                    _fill(cover, pts - origin, 255, aa=False)
+            out[it.target] = cover is None or cv2.countNonZero(cv2.bitwise_and(target, cover)) == 0
         return out
+
+    def _truth_entries(self, st: SceneState) -> list[tuple[int, tuple[float, float, float], str, str]]:
+        """(truth id, truth point in robot_base, label, kind) of every object of ``st``, in truth order."""
+        entries = []
+        for card in st.cards:
+            entries.append((card.marker_id, (float(card.x), float(card.y), 0.0), f"card {card.marker_id}", "marker"))
+        for cup in st.cups:
+            entries.append((cup.marker_id, (float(cup.x), float(cup.y), float(cup.lift + CUP_HEIGHT_M)), cup.label,
+                            "marker"))
+        if st.ball is not None:
+            entries.append((-1, (float(st.ball.x), float(st.ball.y), BALL_RADIUS_M), "ball", "ball"))
+        for th in st.things:  # marker-less things: negative ids, "<colour> <kind>" labels
+            entries.append((th.truth_id, th.centre, th.label, th.kind))
+        for panel in st.panels:  # a lift panel's buttons: the middle of each top face
+            for n in panel.BUTTONS:
+                entries.append((panel.button_truth_id(n), panel.button_centre(n), panel.button_label(n), "button"))
+        for handle in st.handles:
+            entries.append((handle.truth_id, handle.centre, handle.label, "handle"))
+        return entries
 
     def _truth(self, st: SceneState, layouts: dict) -> GroundTruth:
         vis = {side: self._visibility(layouts[side], self._views[side].size) for side in SIDES}
-        objects = []
-        for card in st.cards:
-            objects.append(ObjectTruth(card.marker_id, (float(card.x), float(card.y), 0.0),
-                                       vis["left"].get(card.marker_id, False),
-                                       vis["right"].get(card.marker_id, False),
-                                       label=f"card {card.marker_id}"))
-        for cup in st.cups:
-            objects.append(ObjectTruth(cup.marker_id, (float(cup.x), float(cup.y), float(cup.lift + CUP_HEIGHT_M)),
-                                       vis["left"].get(cup.marker_id, False),
-                                       vis["right"].get(cup.marker_id, False), label=cup.label))
-        if st.ball is not None:
-            objects.append(ObjectTruth(-1, (float(st.ball.x), float(st.ball.y), BALL_RADIUS_M),
-                                       vis["left"].get(-1, False), vis["right"].get(-1, False), label="ball",
-                                       kind="ball"))
-        for th in st.things:  # marker-less things: negative ids, "<colour> <kind>" labels
-            objects.append(ObjectTruth(th.truth_id, th.centre, vis["left"].get(th.truth_id, False),
-                                       vis["right"].get(th.truth_id, False), label=th.label,
-                                       kind=th.kind))
+        objects = [ObjectTruth(key, point, vis["left"].get(key, False), vis["right"].get(key, False),
+                               label=label, kind=kind)
+                   for key, point, label, kind in self._truth_entries(st)]
         return GroundTruth(objects=tuple(objects), pointing_target_id=st.pointing_target_id)
 
     def truth(self, t: float, arm_points: Optional[np.ndarray] = None) -> GroundTruth:
@@ -865,23 +1166,95 @@ class SimDesk:
         layouts = {side: self._layout(self._views[side], st, arm) for side in SIDES}
         return self._truth(st, layouts)
 
+    @staticmethod
+    def _silhouettes(it: _Item) -> list[np.ndarray]:
+        """The image polygons (px) an item covers: its filled shapes and its composited textures."""
+        polys = [sh.pts for sh in it.shapes]
+        if it.marker is not None:
+            polys.append(it.marker[2])
+        polys += [tex[2] for tex in it.textures]
+        return polys
+
+    def _image_boxes(self, items: list, size: tuple[int, int], names: dict) -> dict[int, "ImageBox"]:
+        """Boxes of the visible pixels of each target among ``items`` (painting order), see image_boxes."""
+        w, h = size
+        owner = np.zeros((h, w), np.uint16)  # which item is on top at each pixel (index + 1; 0: desk)
+        for idx, it in enumerate(items):
+            if it.occluder or it.target is not None:
+                for pts in self._silhouettes(it):
+                    _fill(owner, pts, idx + 1, aa=False)
+        out = {}
+        for idx, it in enumerate(items):
+            if it.target is None or it.target not in names:
+                continue
+            polys = self._silhouettes(it)
+            allp = np.vstack(polys)
+            if not np.all(np.isfinite(allp)):
+                continue
+            # the whole silhouette (also beyond the image's edges): the denominator of the fraction
+            bx0, by0 = (int(v) - 1 for v in np.floor(allp.min(axis=0)))
+            bx1, by1 = (int(v) + 2 for v in np.ceil(allp.max(axis=0)))
+            bx0, by0 = max(bx0, -4 * w), max(by0, -4 * h)  # a ray near the near plane: bounded canvas
+            bx1, by1 = min(bx1, 5 * w), min(by1, 5 * h)
+            if bx1 <= bx0 or by1 <= by0:
+                continue
+            own = np.zeros((by1 - by0, bx1 - bx0), np.uint8)
+            origin = np.array([bx0, by0], dtype=float)
+            for pts in polys:
+                _fill(own, pts - origin, 255, aa=False)
+            total = cv2.countNonZero(own)
+            x0, y0, x1, y1 = max(bx0, 0), max(by0, 0), min(bx1, w), min(by1, h)
+            if total == 0 or x1 <= x0 or y1 <= y0:
+                continue
+            mine = owner[y0:y1, x0:x1] == idx + 1
+            ys, xs = np.nonzero(mine)
+            if len(xs) == 0:
+                continue
+            label, kind = names[it.target]
+            out[it.target] = ImageBox(truth_id=it.target, x0=int(xs.min()) + x0, y0=int(ys.min()) + y0,
+                                      x1=int(xs.max()) + x0 + 1, y1=int(ys.max()) + y0 + 1,
+                                      visible_fraction=min(1.0, len(xs) / total), visible_px=int(len(xs)),
+                                      kind=kind, label=label)
+        return {key: out[key] for key in names if key in out}  # in truth order
+
+    def image_boxes(self, t: float, arm_points: Optional[np.ndarray] = None) -> dict[str, dict[int, "ImageBox"]]:
+        """Per side ("left", "right"), per truth id: the box of what is visible of each object.
+
+        The boxes of a ``render(t, arm_points)``: each object's silhouette as drawn (its filled
+        polygons and textures, without anti-aliasing), minus what nearer items (other objects, the
+        hand, the arm) paint over it, clipped to the image — the painter's order of the render
+        itself, so a box is tight to the drawn pixels (within ~1 px: edges are anti-aliased and
+        blurred). Objects with no visible pixel in a view are left out of that view's dict.
+        Every object with a truth id is there: cards and cups with markers (kind "marker"), the
+        cups game's ball, marker-less things, the panel's buttons and the door handle.
+        """
+        st = self.scene(float(t))
+        arm = self._check_arm(arm_points)
+        names = {key: (label, kind) for key, _, label, kind in self._truth_entries(st)}
+        return {side: self._image_boxes(self._layout(self._views[side], st, arm), self._views[side].size, names)
+                for side in SIDES}
+
     # -- drawing -----------------------------------------------------------------------------
 
     def _composite_marker(self, img: np.ndarray, marker: tuple) -> None:
         marker_id, H, paper_px, disc = marker
+        self._composite(img, self._textures[(marker_id, disc)], H, paper_px, SUPERSAMPLE)
+
+    @staticmethod
+    def _composite(img: np.ndarray, tex: np.ndarray, H: np.ndarray, paper_px: np.ndarray, S: int) -> None:
+        """Paint premultiplied BGRA ``tex`` (texel → image px homography ``H``) over ``img`` inside
+        the bounding box of ``paper_px``, warped at S× and area-averaged (anti-aliased edges)."""
         h_img, w_img = img.shape[:2]
         x0, y0 = np.floor(paper_px.min(axis=0)).astype(int) - 1
         x1, y1 = np.ceil(paper_px.max(axis=0)).astype(int) + 2
         x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
         if x1 <= x0 or y1 <= y0:
             return
-        S = SUPERSAMPLE
         # supersampled patch pixel (xs, ys) has its centre at image x0 - 0.5 + (xs + 0.5) / S
         to_patch = np.array([[S, 0.0, (0.5 - x0) * S - 0.5], [0.0, S, (0.5 - y0) * S - 0.5], [0.0, 0.0, 1.0]])
-        tex = self._textures[(marker_id, disc)]
         sup = cv2.warpPerspective(tex, to_patch @ H, ((x1 - x0) * S, (y1 - y0) * S), flags=cv2.INTER_LINEAR,
                                   borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
-        small = cv2.resize(sup, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
+        small = sup if S == 1 else cv2.resize(sup, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
         # premultiplied "over": roi · (1 − α) + colour·α, in 8-bit ops (±1 level)
         roi = img[y0:y1, x0:x1]
         keep = cv2.subtract(255, small[..., 3])
@@ -925,6 +1298,8 @@ class SimDesk:
                               lineType=cv2.LINE_AA, shift=4)
             if it.marker is not None:
                 self._composite_marker(img, it.marker)
+            for tex, H, outline_px, supersample in it.textures:
+                self._composite(img, tex, H, outline_px, supersample)
         if n_flat == len(items):
             self._draw_shadows(img, view, shadows3)
         return img

@@ -1,7 +1,8 @@
 """What happens on the simulated desk: every object's place as a smooth function of time.
 
 Pure geometry, no OpenCV: a scenario maps ``t`` (s) to a ``SceneState`` (cards lying on the
-desk, upside-down cups, the ball, a passing hand, marker-less things). ``core.sim.desk`` draws
+desk, upside-down cups, the ball, a passing hand, marker-less things, lift panels and door
+handles). ``core.sim.desk`` draws
 that state.
 Deterministic given ``seed`` and ``t``. Frame: robot_base (x right, y forward, z up, desk z = 0), m.
 """
@@ -29,6 +30,13 @@ MAX_MARKERS = 8
 # (−1 stays the cups game's ball) and their label is "<colour> <kind>", the kind its last word
 THING_KINDS = ("ball", "plush", "disc", "cup")
 THING_ID_BASE = -11
+
+# the panel scene: a lift panel's buttons and a door handle are not Things (a button is part of
+# its panel) but SceneState.panels / SceneState.handles; their truth ids and labels:
+# button n → BUTTON_ID_BASE − n ("button n"), the handle → HANDLE_ID ("door handle")
+BUTTON_ID_BASE = -20
+HANDLE_ID = -30
+PANEL_KINDS = ("button", "handle")
 
 
 @dataclass(frozen=True)
@@ -102,9 +110,145 @@ class Thing:
 
 
 def thing_kind(label: str) -> Optional[str]:
-    """The kind of a thing from its truth label ("red ball" → "ball"), None for other labels."""
+    """The kind of a marker-less object from its truth label: "red ball" → "ball", "button 5" →
+    "button", "door handle" → "handle"; None for other labels (cards, cups with markers).
+
+    (ObjectTruth.kind says the same without parsing; this stays for callers that have a label.)
+    """
     words = str(label).split()
-    return words[-1] if words and words[-1] in THING_KINDS else None
+    if not words:
+        return None
+    if words[-1] in THING_KINDS:
+        return words[-1]
+    if len(words) == 2 and words[0] == "button" and words[1].isdigit():
+        return "button"
+    if words[-1] == "handle":
+        return "handle"
+    return None
+
+
+@dataclass(frozen=True)
+class Panel:
+    """A lift call panel lying flat on the desk, face up: a brushed-metal plate with 9 round push
+    buttons in a 3×3 grid.
+
+    Panel frame: origin at the middle of the plate's footprint, u along ``yaw`` (yaw 0: u = +x),
+    v 90° further (yaw 0: v = +y, away from the arm), up = +z. The buttons are numbered row-major
+    as they read to someone at the arm looking along +v: 1 2 3 is the far row (+v), 1 on the −u
+    side; 7 8 9 is the near row. Each button's digit is upright for that reader (its top towards
+    +v): the stereo rig across the desk sees the digits upside down, a camera on the arm's hand
+    upright.
+    """
+
+    x: float  # middle of the plate, robot_base (m)
+    y: float
+    yaw: float = 0.0  # rad about z
+    width_m: float = 0.13  # plate size along u
+    length_m: float = 0.15  # plate size along v
+    thickness_m: float = 0.015  # the plate's top face is this high above the desk
+    button_radius_m: float = 0.011
+    button_pitch_m: float = 0.04  # centre to centre, along rows and columns
+    button_proud_m: float = 0.004  # a button's top face stands this far above the plate
+    press_depth_m: float = 0.003  # travel of a button when pressed
+    lit: tuple[int, ...] = ()  # buttons whose ring is lit (selected / registered call)
+    pressed: tuple[int, ...] = ()  # buttons held down (their top face press_depth_m lower)
+    truth_id_base: int = BUTTON_ID_BASE  # button n has truth id truth_id_base − n
+
+    BUTTONS = tuple(range(1, 10))
+
+    def __post_init__(self) -> None:
+        for name in ("lit", "pressed"):
+            bad = [n for n in getattr(self, name) if n not in self.BUTTONS]
+            if bad:
+                raise ValueError(f"Panel.{name} = {getattr(self, name)}: button numbers are 1…9, not {bad}")
+        if 3 * self.button_pitch_m > min(self.width_m, self.length_m):
+            raise ValueError(f"Panel button_pitch_m = {self.button_pitch_m}: 3 rows must fit the "
+                             f"{self.width_m} × {self.length_m} m plate")
+
+    def _check(self, n: int) -> int:
+        if n not in self.BUTTONS:
+            raise ValueError(f"button {n!r}: a lift panel's buttons are numbered 1…9")
+        return int(n)
+
+    def button_uv(self, n: int) -> tuple[float, float]:
+        """Button n's centre in the panel frame (u, v), m."""
+        row, col = divmod(self._check(n) - 1, 3)
+        return ((col - 1) * self.button_pitch_m, (1 - row) * self.button_pitch_m)
+
+    def to_base(self, u: float, v: float, z: float = 0.0) -> tuple[float, float, float]:
+        """A panel-frame point (u, v at height z above the desk) in robot_base (m)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return (float(self.x + c * u - s * v), float(self.y + s * u + c * v), float(z))
+
+    @property
+    def top_z(self) -> float:
+        """Height of the plate's top face above the desk (m)."""
+        return float(self.thickness_m)
+
+    def button_top_z(self, n: int) -> float:
+        """Height of button n's top face above the desk (m), lower while it is pressed."""
+        down = self.press_depth_m if self._check(n) in self.pressed else 0.0
+        return float(self.thickness_m + self.button_proud_m - down)
+
+    def button_centre(self, n: int) -> tuple[float, float, float]:
+        """The middle of button n's top face, robot_base (m): where to press it (its truth point)."""
+        u, v = self.button_uv(n)
+        return self.to_base(u, v, self.button_top_z(n))
+
+    def button_pressed_centre(self, n: int) -> tuple[float, float, float]:
+        """Where the middle of button n's top face is at the end of its travel (robot_base, m)."""
+        u, v = self.button_uv(n)
+        return self.to_base(u, v, self.thickness_m + self.button_proud_m - self.press_depth_m)
+
+    @property
+    def normal(self) -> tuple[float, float, float]:
+        """The panel's outward normal in robot_base (it lies flat: straight up); press along −normal."""
+        return (0.0, 0.0, 1.0)
+
+    def button_truth_id(self, n: int) -> int:
+        """ObjectTruth.marker_id of button n."""
+        return self.truth_id_base - self._check(n)
+
+    @staticmethod
+    def button_label(n: int) -> str:
+        return f"button {n}"
+
+
+@dataclass(frozen=True)
+class DoorHandle:
+    """A lever door handle on a round rose, mounted on the desk as if the desk were the door.
+
+    A round rose on the desk, a neck up to the lever at its pivot, and the lever: a bar
+    ``length_m`` long from the pivot along ``yaw``, its axis ``bar_height_m`` above the desk.
+    Truth point (``centre``): the middle of the bar's top.
+    """
+
+    x: float  # pivot (the rose's centre), robot_base (m)
+    y: float
+    yaw: float = 0.0  # direction the lever points from the pivot (rad; 0: +x)
+    length_m: float = 0.12  # pivot axis to the lever's tip
+    thickness_m: float = 0.018  # bar diameter
+    bar_height_m: float = 0.03  # the bar's axis above the desk
+    rose_radius_m: float = 0.026
+    rose_height_m: float = 0.008
+    neck_radius_m: float = 0.011
+    truth_id: int = HANDLE_ID
+    label: str = "door handle"
+
+    def along(self, s: float, z: Optional[float] = None) -> tuple[float, float, float]:
+        """The point ``s`` m along the lever's axis from the pivot (robot_base); z defaults to the axis."""
+        return (float(self.x + s * math.cos(self.yaw)), float(self.y + s * math.sin(self.yaw)),
+                float(self.bar_height_m if z is None else z))
+
+    @property
+    def centre(self) -> tuple[float, float, float]:
+        """The middle of the bar's top, robot_base (m)."""
+        return self.along(self.length_m / 2, self.bar_height_m + self.thickness_m / 2)
+
+    @property
+    def tip(self) -> tuple[float, float, float]:
+        """The lever's free end on its axis (where to push it down), robot_base (m)."""
+        return self.along(self.length_m)
 
 
 @dataclass(frozen=True)
@@ -117,6 +261,8 @@ class SceneState:
     hands: tuple[Hand, ...] = ()
     pointing_target_id: Optional[int] = None  # cups: the id of the cup hiding the ball
     things: tuple[Thing, ...] = ()  # marker-less objects (the objects scenario)
+    panels: tuple[Panel, ...] = ()  # lift panels (the panel scenario); their buttons have truth ids
+    handles: tuple[DoorHandle, ...] = ()  # door handles (the panel scenario)
 
 
 def smooth_step(s: float) -> float:
@@ -397,11 +543,77 @@ class ObjectsScenario(Scenario):
         return SceneState(cards=self._cards, hands=() if hand is None else (hand,), things=tuple(things))
 
 
+class PanelScenario(Scenario):
+    """A lift panel of 9 buttons and a door handle, for the assistive work (pressing buttons,
+    opening a door).
+
+    - the panel (Panel: 13 × 15 cm brushed-metal plate, 1.5 cm thick) lies at PANEL_XY, turned
+      PANEL_YAW; its buttons' rings light one after the other, SCAN_S each (a scanning selection,
+      as with a one- or two-switch input), from button 1 at t = 0;
+    - a door handle (DoorHandle: a 12 cm lever 3 cm above the desk on a rose) has its pivot at
+      HANDLE_PIVOT and points to −x, its middle at about (0.12, 0.13);
+    - a hand comes in from −x every HAND_PERIOD_S and hovers for HAND_HOVER_S with its
+      fingertips just past button HAND_BUTTON (seen from the rig), hiding the 1-4-7 column and
+      part of the 2-5-8 one in both views;
+    - the marker ids become cards in out-of-the-way spots (the objects scenario's).
+    Everything but the hand is still. Truth: buttons −21…−29 ("button 1"…), the handle −30.
+    """
+
+    name = "panel"
+    PANEL_XY, PANEL_YAW = (-0.03, 0.13), 0.06
+    HANDLE_PIVOT, HANDLE_YAW = (0.18, 0.13), math.pi
+    SCAN_S = 2.0
+    HAND_PERIOD_S, HAND_OFFSET_S = 15.0, 6.0
+    HAND_IN_S, HAND_HOVER_S = 2.0, 2.5
+    HAND_Z_M = 0.10
+    HAND_FAR_X_M = -0.70
+    HAND_BUTTON = 4
+    HAND_TIP_PAST_M = 0.012  # the fingertips reach this far past HAND_BUTTON's centre (along +x)
+    VIEWPOINT = ObjectsScenario.VIEWPOINT
+
+    def __init__(self, marker_ids: Sequence[int], seed: int = 0):
+        super().__init__(marker_ids, seed)
+        spots = ObjectsScenario.CARD_SPOTS
+        if len(self.marker_ids) > len(spots):
+            raise ValueError(f"the panel scenario has room for {len(spots)} markers, got {len(self.marker_ids)}")
+        self._cards = tuple(Card(mid, *spots[i], yaw=ObjectsScenario.CARD_YAWS[i])
+                            for i, mid in enumerate(self.marker_ids))
+        self._handle = DoorHandle(*self.HANDLE_PIVOT, yaw=self.HANDLE_YAW)
+
+    def panel_at(self, t: float) -> Panel:
+        """The panel at time t (only its lit ring changes)."""
+        lit = int(math.floor(t / self.SCAN_S)) % 9 + 1
+        return Panel(*self.PANEL_XY, yaw=self.PANEL_YAW, lit=(lit,))
+
+    def hand_at(self, t: float) -> Optional[Hand]:
+        """The hand hovering over the panel's −x side (or on its way), None while it is away."""
+        k = math.floor((t - self.HAND_OFFSET_S) / self.HAND_PERIOD_S)
+        tau = t - self.HAND_OFFSET_S - k * self.HAND_PERIOD_S
+        if not 0.0 < tau < 2 * self.HAND_IN_S + self.HAND_HOVER_S:
+            return None
+        come = smooth_step(tau / self.HAND_IN_S)
+        go = smooth_step((tau - self.HAND_IN_S - self.HAND_HOVER_S) / self.HAND_IN_S)
+        # the button's top seen from VIEWPOINT, at the hand's height
+        top = np.array(Panel(*self.PANEL_XY, yaw=self.PANEL_YAW).button_centre(self.HAND_BUTTON))
+        eye = np.array(self.VIEWPOINT)
+        cover = top + (self.HAND_Z_M - top[2]) / (eye[2] - top[2]) * (eye - top)
+        tip_x = cover[0] + self.HAND_TIP_PAST_M
+        x0 = tip_x - 0.105  # fingers towards +x: the fingertips are 10.5 cm from the hand's origin
+        x = x0 + (self.HAND_FAR_X_M - x0) * (1.0 - come + go)
+        return Hand(float(x), float(cover[1]), self.HAND_Z_M, yaw=-math.pi / 2)
+
+    def state(self, t: float) -> SceneState:
+        hand = self.hand_at(t)
+        return SceneState(cards=self._cards, hands=() if hand is None else (hand,),
+                          panels=(self.panel_at(t),), handles=(self._handle,))
+
+
 SCENARIOS: dict[str, type[Scenario]] = {
     "static": StaticScenario,
     "cups": CupsScenario,
     "wander": WanderScenario,
     "objects": ObjectsScenario,
+    "panel": PanelScenario,
 }
 
 

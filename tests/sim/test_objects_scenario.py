@@ -158,7 +158,7 @@ def test_the_cli_passes_sim_skew_ms_into_the_session_options(monkeypatch):
 
     seen = {}
 
-    def fake_run_headless(options, duration, as_json, record=None):
+    def fake_run_headless(options, duration, as_json, record=None, **kwargs):
         seen["options"] = options
         return 0
 
