@@ -45,6 +45,9 @@ def collect(quick: bool = False) -> list[dict]:
     from bench import bench_window
 
     rows += bench_window.rows(quick)
+    from bench import bench_detect
+
+    rows += bench_detect.rows(quick)
     from bench import bench_startup
 
     rows += bench_startup.rows(quick)

@@ -2,14 +2,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
-from core.detect.base import BaseDetector, Detection, options_factory, box_of_points
+from core.detect.base import BaseDetector, Detection, box_of_points, check_image, clip_roi, options_factory
 from core.settings import SettingsError
 from core.vision.perception import (
     DEFAULT_DICTIONARY,
+    CropDetector,
     detect_markers,
     dictionary_name,
     dictionary_size,
@@ -56,11 +57,26 @@ class ArucoDetector(BaseDetector):
     def __init__(self, params: Optional[ArucoParams] = None):
         super().__init__(params)
         self._detector = make_detector(self._params.dictionary, fast=self._params.fast)
+        self._crops = CropDetector()
+
+    def detect(self, image_bgr: np.ndarray, roi: Optional[Sequence[float]] = None) -> list[Detection]:
+        """As ``BaseDetector.detect``; inside a ROI the smallest marker accepted stays the full
+        image's (``CropDetector``), so a window search is faster than the full frame, not slower."""
+        image = check_image(image_bgr)
+        box = clip_roi(roi, image.shape)
+        if box is None:
+            return self._detect(image)
+        x, y, w, h = box
+        crop_detector = self._crops.for_crop(self._detector, max(image.shape[:2]), max(w, h))
+        return [d.shifted(x, y) for d in self._detections(detect_markers(crop_detector, image[y:y + h, x:x + w]))]
 
     def _detect(self, image: np.ndarray) -> list[Detection]:
+        return self._detections(detect_markers(self._detector, image))
+
+    def _detections(self, found: dict) -> list[Detection]:
         wanted = set(self._params.ids)
         out = []
-        for marker_id, corners in sorted(detect_markers(self._detector, image).items()):
+        for marker_id, corners in sorted(found.items()):
             if wanted and marker_id not in wanted:
                 continue
             sides = np.linalg.norm(corners - np.roll(corners, -1, axis=0), axis=1)

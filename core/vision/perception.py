@@ -129,6 +129,38 @@ class _Track:
     base_p: Optional[tuple] = None
 
 
+class CropDetector:
+    """An ArUco detector for a crop of a larger frame, keeping the frame's minimum marker size.
+
+    ArUco's minimum marker perimeter is a fraction of the image's largest side, so in a 100 px
+    crop the full frame's rate would admit 3 px noise contours as candidates (5x slower on a
+    textured cup, and a ROI search slower than the full frame). ``for_crop`` returns a copy of the
+    source detector whose rate is scaled by full size / crop size (capped at the maximum rate),
+    rebuilt only when the source detector or the rate changes.
+    """
+
+    def __init__(self):
+        self._source = None  # the detector the crop detector was made from
+        self._crop = None
+        self._params = None
+        self._base_rate = 0.0
+        self._rate: Optional[float] = None
+
+    def for_crop(self, detector, full_size: int, crop_size: int):
+        if self._source is not detector:
+            self._crop = cv2.aruco.ArucoDetector(detector.getDictionary(), detector.getDetectorParameters(),
+                                                 detector.getRefineParameters())
+            self._params = detector.getDetectorParameters()
+            self._base_rate = self._params.minMarkerPerimeterRate
+            self._source, self._rate = detector, None
+        rate = min(self._base_rate * full_size / max(1, crop_size), self._params.maxMarkerPerimeterRate)
+        if rate != self._rate:
+            self._params.minMarkerPerimeterRate = rate
+            self._crop.setDetectorParameters(self._params)
+            self._rate = rate
+        return self._crop
+
+
 class StereoMarkerPerception:
     """Find ArUco markers in a stereo pair and locate their centres in robot_base.
 
@@ -158,7 +190,7 @@ class StereoMarkerPerception:
         self.tracks: dict[int, _Track] = {i: _Track() for i in self.marker_ids}
         self.frames = 0  # frames computed (repeated frames whose answer was reused are not counted)
         self._last: Optional[PerceptionResult] = None
-        self._crop_source = None  # the detector the crop detector was made from
+        self._crops = CropDetector()
 
     def reset(self) -> None:
         """Forget every track (next frame runs a full-frame search)."""
@@ -208,21 +240,8 @@ class StereoMarkerPerception:
         return found, True
 
     def _crop_detector(self, full_size: int, crop_size: int):
-        """``self.detector`` for a crop: ArUco's minimum marker perimeter is a fraction of the
-        image's largest side, so in a 100 px crop it would admit 3 px noise contours as
-        candidates (5x slower on a textured cup); this one keeps the full frame's minimum in pixels."""
-        if self._crop_source is not self.detector:
-            d = self.detector
-            self._crop = cv2.aruco.ArucoDetector(d.getDictionary(), d.getDetectorParameters(), d.getRefineParameters())
-            self._crop_params = d.getDetectorParameters()
-            self._crop_base_rate = self._crop_params.minMarkerPerimeterRate
-            self._crop_source, self._crop_rate = d, None
-        rate = min(self._crop_base_rate * full_size / max(1, crop_size), self._crop_params.maxMarkerPerimeterRate)
-        if rate != self._crop_rate:
-            self._crop_params.minMarkerPerimeterRate = rate
-            self._crop.setDetectorParameters(self._crop_params)
-            self._crop_rate = rate
-        return self._crop
+        """``self.detector`` for a crop of the frame (see ``CropDetector``)."""
+        return self._crops.for_crop(self.detector, full_size, crop_size)
 
     def _robust_allowed(self, missing) -> bool:
         """Robust (slow) search right after a loss, then every ``robust_every`` frames."""
