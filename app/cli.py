@@ -45,6 +45,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--detector", default=None, metavar="NAME[,NAME…]",
                    help="also locate marker-less objects in 3D with these detectors (e.g. hsv, circles, "
                         "onnx:PATH; the headless JSON then scores them against the simulated desk's truth)")
+    p.add_argument("--follow-object", default=None, metavar="LABEL",
+                   help="headless: the arm follows a marker-less object, e.g. \"green ball\", \"red\" or "
+                        "\"ball\" (needs --detector): it aims where a moving object will be and approaches a "
+                        "stopped one on a cubic move")
+    p.add_argument("--no-intercept", action="store_true",
+                   help="with --follow-object: aim where the object is, not where it will be (to compare)")
+    p.add_argument("--object-roi", action="store_true",
+                   help="with --detector: detect only around the tracked objects between full-frame searches")
+    p.add_argument("--object-tracker", default=None, choices=("kcf", "csrt", "mil", "mosse"),
+                   help="with --detector: a tracker per object and view, re-seeded by the detector")
+    p.add_argument("--object-detect-every", type=int, default=1, metavar="N",
+                   help="with --object-tracker: run the detectors every N frames, the trackers in between")
+    p.add_argument("--no-skew-compensation", action="store_true",
+                   help="with --detector: triangulate objects as seen, without bringing the right view to the "
+                        "left view's instant (to measure what unsynchronised webcams cost)")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -71,6 +86,19 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def object_option_problem(args) -> str:
+    """"" when the object-following options fit together, else what is wrong and the fix."""
+    if args.follow_object is None and args.no_intercept:
+        return "--no-intercept only changes --follow-object: add --follow-object LABEL"
+    if (args.object_roi or args.object_tracker) and not args.detector:
+        return "--object-roi and --object-tracker change the objects of --detector: add --detector hsv"
+    if args.object_detect_every != 1 and not args.object_tracker:
+        return "--object-detect-every needs a tracker between detector runs: add --object-tracker kcf"
+    if args.no_skew_compensation and not args.detector:
+        return "--no-skew-compensation only changes the objects of --detector: add --detector hsv"
+    return ""
+
+
 # `deskarm NAME ...` runs a tool: NAME -> module with `run(command: str, argv: list[str]) -> int`
 SUBCOMMANDS = {
     "calibrate": "app.cli_calibrate",
@@ -95,6 +123,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"deskarm: --detector {args.detector!r}: {exc}", file=sys.stderr)
         return 2
+    problem = object_option_problem(args)
+    if problem:
+        print(f"deskarm: {problem}", file=sys.stderr)
+        return 2
     try:
         from app.cli_handeye import parse_rig_offset
 
@@ -107,6 +139,9 @@ def main(argv: list[str] | None = None) -> int:
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
         event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
         markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms, detectors=detectors,
+        follow_object=args.follow_object, object_intercept=not args.no_intercept,
+        compensate_skew=not args.no_skew_compensation, object_roi_search=args.object_roi,
+        object_tracker=args.object_tracker, object_detect_every=args.object_detect_every,
     )
     try:
         options.validate()

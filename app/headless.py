@@ -23,7 +23,7 @@ import random
 import sys
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, Optional
 
 import numpy as np
@@ -38,6 +38,11 @@ MAX_SAMPLES = 20_000  # samples kept per metric: a p95 from this many is within 
 RECENT_PERCEPTION = 60  # frames behind the status line's perception figure (2 s at 30 fps)
 RECENT_ERROR_3D = 120  # marker observations behind the status line's 3D error figure
 OBJECT_SEEN_M = 0.03  # an object observation this near its truth (same label) counts as seeing it
+FAST_OBJECT_M_S = 0.15  # error_3d_mm_*_moving: truth objects at least this fast (unsynchronised webcams)
+FOLLOW_REACH_TOL_M = 0.01  # object following is scored while the true aim is within this of the reachable space
+FOLLOW_ON_AIM_M = 0.01  # … from the first time the tool came this near its true aim (not the sprint there)
+REACHED_M = 0.005  # time_to_reach_stopped: the tool within this of the approach's end
+ARRIVAL_WINDOW_S = 0.06  # arrival speed: tool displacement over this window (three 50 Hz ticks) / its length
 
 
 def check_duration(duration_s) -> float:
@@ -131,6 +136,15 @@ class RunMetrics:
     object_error_mm: dict = field(default_factory=dict)  # kind -> Reservoir (mm)
     object_id_switches: int = 0
     object_velocity_error_mm_s: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 7))
+    # truth objects moving at ≥ FAST_OBJECT_M_S: their 3D error alone (the skew compensation's case)
+    object_error_fast_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 8))
+    # following a marker-less object (--follow-object; ``following`` is True then)
+    following: bool = False
+    object_follow_error_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 9))
+    object_stops: int = 0  # stopped events of the followed object
+    object_approaches: int = 0  # cubic approaches planned (stops and re-plans)
+    arrival_speed_mm_s: list = field(default_factory=list)  # tool speed at the end of each approach
+    time_to_reach_stopped_s: list = field(default_factory=list)  # stopped event -> tool within REACHED_M
 
     def object_error(self, kind: str) -> Reservoir:
         """The error reservoir of one kind of object (created on first use, its own seed)."""
@@ -155,6 +169,28 @@ class RunMetrics:
             "error_3d_mm_p95_by_kind": {k: r(percentile(self.object_error_mm[k], 95)) for k in kinds},
             "id_switches": self.object_id_switches,
             "velocity_error_mm_s_p50": r(percentile(self.object_velocity_error_mm_s, 50)),
+            "error_3d_mm_p50_moving": r(percentile(self.object_error_fast_mm, 50)),
+            "error_3d_mm_p95_moving": r(percentile(self.object_error_fast_mm, 95)),
+            "moving_samples": self.object_error_fast_mm.seen,
+            **self.follow_summary(),
+        }
+
+    def follow_summary(self) -> dict:
+        """The object-following part of the JSON (empty unless --follow-object)."""
+        if not self.following:
+            return {}
+
+        def r(v, nd=3):
+            return None if v is None else round(v, nd)
+
+        return {
+            "object_follow_error_mm_p50": r(percentile(self.object_follow_error_mm, 50)),
+            "object_follow_error_mm_p95": r(percentile(self.object_follow_error_mm, 95)),
+            "object_follow_samples": self.object_follow_error_mm.seen,
+            "object_stops": self.object_stops,
+            "object_approaches": self.object_approaches,
+            "arrival_speed_mm_s_p50": r(percentile(self.arrival_speed_mm_s, 50)),
+            "time_to_reach_stopped_s_p50": r(percentile(self.time_to_reach_stopped_s, 50)),
         }
 
     def summary(self) -> dict:
@@ -227,9 +263,21 @@ class HeadlessRunner:
         self.reconnector = Reconnector(now=session.clock.now)
         self._recorded_base_T_camera = session.perception.base_T_camera
         self.metrics.objects = session.object_perception is not None
+        self.metrics.following = session.targeter.mode is TargetMode.OBJECT
         self._object_labels = detector_labels(session.object_perception)
         self._object_ids: dict[int, int] = {}  # truth id -> object_id of its last matched observation
         self._object_truth_prev: dict[int, tuple[float, np.ndarray]] = {}  # truth id -> (t, position)
+        # following an object: the truth's motion (truth id -> (t, position, velocity)), the truth
+        # object the followed observation is, the tool's recent positions and the approach scored
+        self._truth_motion: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
+        self._followed_truth_id: Optional[int] = None
+        self._follow_on_aim = False
+        self._follow_object_id: Optional[int] = None
+        self._tool_track: deque = deque(maxlen=16)  # (t, tool position) per control step
+        self._approach_scored: dict[int, set] = {}  # approach number -> {"reach", "arrival"} done
+        self._approach_seen = 0
+        self._approach_info: Optional[tuple] = None  # (number, t0, t_end, goal) of the latest approach
+        self._last_result = None
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
@@ -261,20 +309,24 @@ class HeadlessRunner:
                 w0 = time.perf_counter()
                 result = s.perception.process(frame)
                 if s.targeter.mode is TargetMode.CUPS:
-                    from dataclasses import replace
-
                     result = replace(result, ball_left_px=s.ball_finder.find(frame.left))
+                objects = None
+                if s.object_perception is not None:  # marker-less objects, before targeting sees the result
+                    w1 = time.perf_counter()
+                    objects = s.object_perception.process(frame)
+                    m.object_perception_ms.append((time.perf_counter() - w1) * 1e3)
+                    result = replace(result, objects=tuple(objects))
                 if self.recorder is not None:
                     self._record_frame(frame, result)
+                self._last_result = result
                 self._goal = s.targeter.update(result)
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))
                 self._score_frame(frame, result)
-                if s.object_perception is not None:  # marker-less objects, after the markers
-                    w1 = time.perf_counter()
-                    objects = s.object_perception.process(frame)
-                    m.object_perception_ms.append((time.perf_counter() - w1) * 1e3)
+                if objects is not None:
                     self._score_objects(frame, objects)
+                if m.following:
+                    self._note_followed(frame)
                 schedule.goal_arrived(clock.now())  # a new perception result: step at once
                 # event-driven: this frame's step now; tick-driven (or real cameras): any ticks due
                 while schedule.due(clock.now()):
@@ -306,6 +358,12 @@ class HeadlessRunner:
         # no joint state yet (v1 has none before its first command): start from the last
         # command, else from home, as the window's control worker does
         q_now = s.controller.start_pose(state)
+        if s.targeter.mode is TargetMode.OBJECT:
+            # the follower's lead time and approaches start from the tool; like the window's control
+            # worker, each step asks for a fresh goal (an approach is a trajectory in time)
+            s.targeter.set_tool_position(s.kinematics.fk(q_now))
+            if self._last_result is not None:
+                self._goal = s.targeter.update(self._last_result)
         w0 = time.perf_counter()
         cmd = s.controller.step(self._goal, q_now, now)
         if cmd is None:
@@ -342,6 +400,8 @@ class HeadlessRunner:
         if self.recorder is not None:
             self.recorder.state(state)
         self._score_reach(cmd, state)
+        if m.following and state is not None:
+            self._score_follow(state, s.clock.now())
 
     def _record_frame(self, frame, result) -> None:
         """Hand this frame's messages to the recorder (queue puts: nothing waits for the disk)."""
@@ -429,6 +489,8 @@ class HeadlessRunner:
                 continue
             dist, oi = matched[ti]
             m.object_error(kind).append(dist * 1e3)
+            if velocity is not None and float(np.linalg.norm(velocity)) >= FAST_OBJECT_M_S:
+                m.object_error_fast_mm.append(dist * 1e3)
             if dist > OBJECT_SEEN_M:
                 continue
             m.object_seen_pairs += 1
@@ -440,6 +502,91 @@ class HeadlessRunner:
             if velocity is not None and o.velocity_base is not None:
                 m.object_velocity_error_mm_s.append(
                     float(np.linalg.norm(np.asarray(o.velocity_base) - velocity)) * 1e3)
+
+    def _note_followed(self, frame) -> None:
+        """Which truth object the followed observation is (by label, nearest), and every truth
+        object's motion (for the follow error at control-step times)."""
+        truth = frame.truth
+        if truth is None:
+            return
+        t = float(frame.t)
+        for obj in truth.objects:
+            p = np.asarray(obj.base_p_centre, dtype=float)
+            prev = self._truth_motion.get(obj.marker_id)
+            v = np.zeros(3) if prev is None else prev[2]
+            if prev is not None and t - prev[0] > 1e-6:
+                v = (p - prev[1]) / (t - prev[0])
+            self._truth_motion[obj.marker_id] = (t, p, v)
+        status = self.s.targeter.object_follow_status()
+        if status.object_id != self._follow_object_id or status.phase in ("lost", "watch", "approach"):
+            # another track, or following starts over: scored again once the tool is on it
+            self._follow_object_id = status.object_id
+            self._follow_on_aim = False
+        if not status.seen or status.base_p_object is None:
+            self._followed_truth_id = None
+            return
+        seen_p = np.asarray(status.base_p_object)
+        best, best_d = None, OBJECT_SEEN_M * 3
+        for obj in truth.objects:
+            if not label_matches(status.label, obj.label):
+                continue
+            d = float(np.linalg.norm(np.asarray(obj.base_p_centre) - seen_p))
+            if d < best_d:
+                best, best_d = obj.marker_id, d
+        self._followed_truth_id = best
+
+    def _score_follow(self, state, now: float) -> None:
+        """The followed object's metrics at one control step (see ``RunMetrics.follow_summary``).
+
+        Follow error: the tool vs the pointing position of the followed object's *true* place
+        (extrapolated from the latest frame to now with its true velocity), or the nearest point
+        the arm reaches when that is at most FOLLOW_REACH_TOL_M out of reach; only while the object
+        is seen, while the follower tracks it or stays on it (not while it watches or approaches),
+        and from the first time the tool came within FOLLOW_ON_AIM_M of that point after it was
+        (re)acquired (the arm's sprint to a newly seen object is not a following error).
+        Stops, approaches, the time from a stopped event to the tool within REACHED_M of the
+        approach's end, and the tool's speed at the end of the approach (over ARRIVAL_WINDOW_S).
+        """
+        s, m = self.s, self.metrics
+        tool = np.asarray(s.kinematics.fk(state.q), dtype=float)
+        self._tool_track.append((now, tool))
+        status = s.targeter.object_follow_status()
+        m.object_stops, m.object_approaches = status.stops, status.approaches
+        if status.approaches != self._approach_seen and status.approach_t0 is not None:
+            self._approach_seen = status.approaches
+            self._approach_info = (status.approaches, status.approach_t0, status.approach_t_end,
+                                   np.asarray(status.approach_goal))
+        info = self._approach_info
+        if info is not None:
+            number, t0, t_end, goal = info
+            done = self._approach_scored.setdefault(number, set())
+            active = status.approaches == number and status.phase in ("approach", "arrived")
+            if not active:
+                self._approach_info = None  # cancelled (the object moved) or replaced
+            else:
+                if "reach" not in done and float(np.linalg.norm(tool - goal)) <= REACHED_M:
+                    done.add("reach")
+                    m.time_to_reach_stopped_s.append(now - t0)
+                if "arrival" not in done and now >= t_end:
+                    past = [(t, p) for t, p in self._tool_track if t <= now - ARRIVAL_WINDOW_S + 1e-9]
+                    if past:
+                        t_past, p_past = past[-1]
+                        done.add("arrival")
+                        m.arrival_speed_mm_s.append(float(np.linalg.norm(tool - p_past)) / (now - t_past) * 1e3)
+        if (not status.seen or self._followed_truth_id is None
+                or status.phase not in ("track", "arrived")):
+            return
+        t_truth, p_truth, v_truth = self._truth_motion[self._followed_truth_id]
+        aim = np.asarray(s.targeter.pointing.apply(p_truth + v_truth * (now - t_truth)))
+        ik = s.kinematics.ik(tuple(aim), state.q)
+        if float(ik.error_m) > FOLLOW_REACH_TOL_M:
+            return
+        error = float(np.linalg.norm(tool - np.asarray(ik.base_p_reached)))
+        if not self._follow_on_aim:
+            self._follow_on_aim = error <= FOLLOW_ON_AIM_M
+            if not self._follow_on_aim:
+                return
+        m.object_follow_error_mm.append(error * 1e3)
 
     def _score_reach(self, cmd, state) -> None:
         """Tool tip vs aimed point, once the arm has settled on a goal that stopped moving."""
@@ -521,7 +668,8 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
     """Entry point of ``deskarm --headless``; returns the process exit code.
 
     ``record``: None (no recording), True or "" (a new folder under the recordings folder) or a
-    path (a new rosbag2 folder there)."""
+    path (a new rosbag2 folder there). Following an object (``options.follow_object``), intercept
+    and skew compensation are session options."""
     out = out or sys.stdout
     duration_s = check_duration(duration_s)  # before any device is opened
     session = DeskSession.create(options)

@@ -6,7 +6,7 @@ headless metrics measure is what the window shows.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Optional
 
@@ -34,7 +34,7 @@ from core.vision.cameras import CameraSource, open_camera, parse_camera_spec
 from core.vision.markers import MarkersConfig, load_markers, markers_for_session
 from core.vision.perception import StereoMarkerPerception
 
-SCENARIOS = ("static", "cups", "wander", "objects")
+SCENARIOS = ("static", "cups", "wander", "objects", "panel")
 MAX_SIM_SKEW_MS = 100.0  # --sim-skew-ms: 0…this
 
 
@@ -63,6 +63,18 @@ class SessionOptions:
     # detectors of marker-less objects (registry names, e.g. ("hsv",)): run on every frame after the
     # markers, matched across the views, triangulated and tracked (``DeskSession.object_perception``)
     detectors: tuple[str, ...] = ()
+    # how the object perception runs its detectors (``core.detect.stereo.StereoObjectPerception``):
+    object_roi_search: bool = False  # detect only around the tracks between full-frame searches
+    object_full_frame_every: int = 10  # with ROI search: a full-frame search every N frames (≥ 1)
+    object_tracker: Optional[str] = None  # kcf | csrt | mil | mosse: a tracker per object and view
+    object_reseed_every: int = 5  # the trackers are re-seeded from the detector every N frames (≥ 1)
+    object_detect_every: int = 1  # with a tracker: the detectors run every N frames, trackers in between
+    object_min_hits: int = 3  # a new object gets an id after N triangulated frames in a row (≥ 1)
+    compensate_skew: bool = True  # bring the right view's object centres to the left view's instant
+    # follow a marker-less object from the start (TargetMode.OBJECT): a label ("green ball"), a colour
+    # or a kind; needs ``detectors``. ``object_intercept`` False aims where it is, not where it will be
+    follow_object: Optional[str] = None
+    object_intercept: bool = True
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
@@ -72,6 +84,14 @@ class SessionOptions:
                 self.detectors = tuple(parse_detector_list(",".join(str(d) for d in items)))
             except ValueError as exc:
                 raise ValueError(f"--detector: {exc}") from None
+        if self.detectors:
+            object_perception_options(self)  # ValueError naming a bad object_* option
+        if self.follow_object is not None:
+            if not str(self.follow_object).strip():
+                raise ValueError("--follow-object needs a label, e.g. --follow-object \"green ball\"")
+            if not self.detectors:
+                raise ValueError(f"--follow-object {self.follow_object!r} needs a detector to see objects: "
+                                 "add --detector hsv (or circles, desk, onnx:PATH)")
         if self.rig_offset is not None:
             check_rig_offset_option(self.rig_offset)
         parse_camera_spec(self.camera)
@@ -176,11 +196,17 @@ class DeskSession:
         mode = TargetMode.CUPS if options.scenario == "cups" else TargetMode.FOLLOW
         targeter = Targeter(clock, mode=mode, follow_id=ids[0], cup_ids=ids[:2],
                             lissajous=lissajous_for(profile, kinematics))
+        targeter.set_arm(kinematics, profile)  # object goals: clipped to the workspace, the arm's tool speed
+        if options.follow_object is not None:
+            targeter.set_object_follow_params(replace(targeter.follower.params, intercept=bool(options.object_intercept)))
+            targeter.set_follow_object(str(options.follow_object).strip())
+            targeter.set_mode(TargetMode.OBJECT)
         controller = ArmController(profile, kinematics)
         object_perception = None
         if options.detectors:  # "hsv" with its default colours, every detector with its defaults
             object_perception = StereoObjectPerception(calibration, base_T_camera,
-                                                       [make_detector(name) for name in options.detectors])
+                                                       [make_detector(name) for name in options.detectors],
+                                                       **object_perception_options(options))
         bridge = remote_bridge or open_bridge(options.bridge, profile, clock=clock)
         return cls(options, clock, profile, kinematics, camera, calibration, perception, targeter,
                    controller, bridge, banners, hand_eye=hand_eye, camera_to_robot=state, tool_marker=tool_marker,
@@ -239,6 +265,20 @@ class DeskSession:
             self.camera.disconnect()
         finally:
             self.bridge.disconnect()
+
+
+def object_perception_options(options: SessionOptions) -> dict:
+    """The ``StereoObjectPerception`` keyword options a session's ``options`` choose (ValueError,
+    naming the option, for a value out of range)."""
+    kw = dict(roi_search=bool(options.object_roi_search), full_frame_every=options.object_full_frame_every,
+              tracker=options.object_tracker, reseed_every=options.object_reseed_every,
+              detect_every=options.object_detect_every, min_hits=options.object_min_hits,
+              compensate_skew=bool(options.compensate_skew))
+    for name in ("full_frame_every", "reseed_every", "detect_every", "min_hits"):
+        value = kw[name]
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"object_{name} = {value!r} must be a whole number ≥ 1")
+    return kw
 
 
 def freeze_startup_objects() -> None:

@@ -2,15 +2,41 @@
 
 ``StereoObjectPerception`` runs its detectors on both views of a ``StereoFrame``; detections of
 the same kind and label whose rectified centres lie on the same row (epipolar consistency, within
-``max_dy_px``), with a positive disparity and a similar size, are paired (greedily, cheapest
-first: row offset plus size mismatch). Each pair's rectified centres are triangulated into
-camera_left and mapped to robot_base with the calibration's rectification, exactly as the
-marker perception does (``StereoMarkerPerception.rectify_points`` / ``triangulate_rectified`` /
-``camera_to_base``: point-wise ``cv2.undistortPoints``, no remapped images).
+``max_dy_px``), with a positive disparity, a similar size (radius and box sides) and a 3D point
+that can be an object on the desk (not below the desk plane, not above the cameras), are paired
+(greedily, cheapest first: row offset plus size mismatch). Each pair's rectified centres are
+triangulated into camera_left and mapped to robot_base with the calibration's rectification,
+exactly as the marker perception does (``StereoMarkerPerception.rectify_points`` /
+``triangulate_rectified`` / ``camera_to_base``: point-wise ``cv2.undistortPoints``).
 
-Objects keep an id over time: each 3D point is associated with the live track of the same kind
-and label whose constant-velocity Kalman prediction is nearest (within ``gate_m``); a point
-with none gets a new id, and a track unseen for ``drop_after`` frames is forgotten.
+Ids. Each 3D point is associated with the live track of the same kind and label whose
+constant-velocity Kalman prediction is nearest (within ``gate_m``; confirmed tracks before
+tentative ones). A point with none starts a *tentative* track, which gets a public id and is
+reported only after ``min_hits`` triangulated frames in a row (SORT's min_hits: a flicker never
+gets an id). A confirmed track unseen for ``drop_after`` frames is lost; a lost one is remembered
+``LOST_KEEP_S`` and takes its id back when its object reappears near where it was lost.
+
+Occlusion. The arm or a hand across an object splits its blob in two; each half would start a
+track of its own and later take the object's id. So, per view, same-label blobs inside a live
+track's predicted box whose union still fits the track's known size (``merge_fragments``) are
+merged into one detection (their convex hull: the occluder's strip between them is the object
+too); a leftover blob that would start a track inside the box of a track measured this frame is
+a fragment and starts none; and one blob covering two tracks of its label (a fragment track and
+its object, seen whole again) keeps the older track's id.
+
+ROI search (``roi_search``): between full-frame searches each detector runs only in a window
+around each live track's predicted box in each view (grown by ``roi_margin`` box sizes and by
+its image motion). A full-frame search runs every ``full_frame_every`` frames (a new object can
+appear only then) and whenever a track is tentative or missed a frame, or a blob touches its
+window's edge. ``last_full_frame_search`` and ``last_timings_ms`` describe the last frame.
+
+Trackers (``tracker`` = "kcf", "csrt", "mil", "mosse"): each confirmed track runs a
+``core.detect.tracking.ObjectTracker`` per view, seeded from its detection, re-seeded from the
+detector every ``reseed_every`` frames or when they disagree. On a frame where the detector
+misses the object in a view (or is not run: ``detect_every`` > 1), the tracker's box stands in
+for that view's detection. The tracker's removal check (``lost_after`` detector runs without a
+matching detection, or a patch that looks like the background) ends that: a tracker never
+reports an object that left or is hidden for long.
 
 Unsynchronised webcams: the right image of a pair is captured ``frame.skew_s`` after the left
 (``frame.t``). A moving object has moved in between and that motion reads as false disparity
@@ -24,13 +50,14 @@ from __future__ import annotations
 
 import collections
 import math
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
 import cv2
 import numpy as np
 
-from core.detect.base import Detection, Detector
+from core.detect.base import Detection, Detector, clip_roi
 from core.detect.kalman import ConstantVelocityKalman
 from core.detect.skew import compensate_pair
 from core.messages import StereoFrame
@@ -64,6 +91,7 @@ class ObjectObservation:
     disparity_px: Optional[float] = None  # rectified x_left − x_right used for triangulation
     skew_compensated: bool = False  # the right centre was moved to the left view's instant
     frames_tracked: int = 1  # triangulated frames of this track so far
+    from_tracker: bool = False  # a view's observation is its tracker's box (the detector missed it there)
 
 
 def _size(d: Detection) -> float:
@@ -135,20 +163,40 @@ def _point(p) -> tuple[float, float, float]:
 REACQUIRE_M = 0.20  # a live track's last position this near takes a detection its prediction missed
 LOST_KEEP_S = 8.0  # a lost track is remembered this long, for an object that leaves and comes back
 LOST_REACQUIRE_M = 0.40  # … and takes a detection of its label this near its last position
+SIDES = ("left", "right")
+TRACKER_KINDS = ("kcf", "csrt", "mil", "mosse")  # ``tracker=``: core.detect.tracking kinds, lower case
+EXTENT_HISTORY = 30  # a track's size in a view: the largest box of its last this many whole detections
+MERGE_SLACK = 1.25  # fragments merge when their union is at most this many times the track's size …
+MERGE_PAD_PX = 4.0  # … plus this much
+# fragments are looked for in a track's predicted box grown by this much of its size on each side
+# (the box follows the last measurement, itself a fragment's once the occlusion began)
+MERGE_GROW = 0.5
+FRAGMENT_GROW = 0.25  # a pair inside a measured track's predicted boxes grown by this much starts no track
+ROI_MIN_MARGIN_PX = 6.0  # an ROI is at least this much larger than the predicted box on each side
 
 
 class _ObjectTrack:
     """What the perception remembers about one object between frames."""
 
-    def __init__(self, object_id: int, kind: str, label: str, kalman: ConstantVelocityKalman, history: int):
-        self.object_id = object_id
+    def __init__(self, key: int, kind: str, label: str, kalman: ConstantVelocityKalman, history: int):
+        self.key = key  # internal, from birth; ``object_id`` is the public id, given at confirmation
+        self.object_id: Optional[int] = None
         self.kind, self.label = kind, label
         self.kf = kalman
         self.missed = 0  # frames in a row without a triangulated measurement
         self.frames = 0  # triangulated frames
+        self.hits = 0  # triangulated frames in a row
         # rectified centres as seen, with their capture times: (t, x, y)
         self.left_hist: collections.deque = collections.deque(maxlen=history)
         self.right_hist: collections.deque = collections.deque(maxlen=history)
+        # per view: the last raw box seen (t, x, y, w, h, radius) and the sizes (w, h) of whole detections
+        self.view: dict[str, Optional[tuple]] = {side: None for side in SIDES}
+        self.extent: dict[str, collections.deque] = {side: collections.deque(maxlen=EXTENT_HISTORY) for side in SIDES}
+        self.trackers: dict[str, object] = {side: None for side in SIDES}  # ObjectTracker per view
+
+    @property
+    def confirmed(self) -> bool:
+        return self.object_id is not None
 
     def predicted(self, t: float) -> Optional[np.ndarray]:
         p, v = self.kf.position, self.kf.velocity
@@ -172,23 +220,142 @@ class _ObjectTrack:
     def velocities(self):
         return self._velocity(self.left_hist), self._velocity(self.right_hist)
 
+    def image_velocity(self, side: str) -> Optional[np.ndarray]:
+        return self._velocity(self.left_hist if side == "left" else self.right_hist)
+
+    def size(self, side: str) -> Optional[tuple[float, float]]:
+        """The object's box size (w, h) in ``side``: the largest of its recent whole detections."""
+        sizes = self.extent[side]
+        if sizes:
+            return max(w for w, _ in sizes), max(h for _, h in sizes)
+        v = self.view[side]
+        return None if v is None else (v[3], v[4])
+
+    def predicted_box(self, side: str, t: float) -> Optional[np.ndarray]:
+        """Where the object's box (x, y, w, h; raw px, its full size) is expected in ``side`` at ``t``."""
+        v = self.view[side]
+        if v is None:
+            return None
+        t0, x, y, w, h, _ = v
+        cx, cy = x + w / 2.0, y + h / 2.0
+        vel = self.image_velocity(side)
+        if vel is not None:
+            dt = min(max(t - t0, 0.0), 0.5)
+            cx, cy = cx + float(vel[0]) * dt, cy + float(vel[1]) * dt
+        W, H = self.size(side)
+        return np.array([cx - W / 2.0, cy - H / 2.0, W, H])
+
+    def note_view(self, side: str, t: float, d: Detection, whole: bool) -> None:
+        """Remember the box ``d`` of this object in ``side`` (``whole``: a detector's own blob)."""
+        x, y, w, h = d.box
+        self.view[side] = (t, x, y, w, h, _size(d))
+        if whole:
+            self.extent[side].append((w, h))
+
+
+def _inside(point, box, grow: float = 0.0) -> bool:
+    """Is ``point`` (x, y) inside ``box`` (x, y, w, h) grown by ``grow`` of its size on each side?"""
+    x, y, w, h = box
+    gx, gy = grow * w, grow * h
+    return x - gx <= point[0] <= x + w + gx and y - gy <= point[1] <= y + h + gy
+
+
+def _boxes_touch(a, b) -> bool:
+    return a[0] <= b[0] + b[2] and b[0] <= a[0] + a[2] and a[1] <= b[1] + b[3] and b[1] <= a[1] + a[3]
+
+
+def _merge_boxes(boxes: list) -> list:
+    """Overlapping boxes (x, y, w, h) replaced by their union until none overlap."""
+    boxes = [list(map(float, b)) for b in boxes]
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                if _boxes_touch(boxes[i], boxes[j]):
+                    a, b = boxes[i], boxes.pop(j)
+                    x0, y0 = min(a[0], b[0]), min(a[1], b[1])
+                    x1, y1 = max(a[0] + a[2], b[0] + b[2]), max(a[1] + a[3], b[1] + b[3])
+                    boxes[i] = [x0, y0, x1 - x0, y1 - y0]
+                    merged = True
+                    break
+            if merged:
+                break
+    return boxes
+
+
+def merge_detections(parts: Sequence[Detection]) -> Detection:
+    """One detection standing for the fragments ``parts`` of one object (same kind and label).
+
+    Its outline is the convex hull of the parts' outlines (or boxes): an occluder's strip between
+    the fragments belongs to the object too. Centre: the hull's centroid; score: the lowest.
+    """
+    pts = []
+    for d in parts:
+        if d.contour is not None and len(d.contour) >= 1:
+            pts.append(np.asarray(d.contour, float))
+        else:
+            x, y, w, h = d.box
+            pts.append(np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], float))
+    hull = cv2.convexHull(np.vstack(pts).astype(np.float32)).reshape(-1, 2).astype(np.float64)
+    m = cv2.moments(hull.astype(np.float32))
+    if m["m00"] > 0:
+        centre = (m["m10"] / m["m00"], m["m01"] / m["m00"])
+    else:
+        centre = tuple(hull.mean(axis=0))
+    lo, hi = hull.min(axis=0), hull.max(axis=0)
+    (_, _), radius = cv2.minEnclosingCircle(hull.astype(np.float32))
+    first = parts[0]
+    return Detection(kind=first.kind, label=first.label, score=min(d.score for d in parts),
+                     box=(lo[0], lo[1], hi[0] - lo[0], hi[1] - lo[1]), centre_px=centre,
+                     radius_px=float(radius), contour=hull)
+
 
 class StereoObjectPerception:
     """Detections of any ``Detector`` in both views → matched pairs → robot_base points with ids.
 
     ``base_T_camera`` is the 4x4 pose of camera_left in robot_base. ``detectors`` each run on
-    both raw views. Not thread-safe: one per worker.
+    both raw views (or only in windows around the tracks: ``roi_search``). Not thread-safe: one
+    per worker. See the module docstring for ids, fragments, ROI search and trackers.
     """
 
     def __init__(self, calibration: StereoCalibration, base_T_camera, detectors: Sequence[Detector],
                  max_dy_px: float = 4.0, min_disparity_px: float = 1.0, size_ratio: float = 1.6,
                  compensate_skew: bool = True, gate_m: float = 0.08, drop_after: int = 10,
                  velocity_history: int = 5, max_history_gap_s: float = 0.25,
-                 process_noise: float = 0.5, measurement_noise: float = 0.002, refine_centres: bool = True):
+                 process_noise: float = 0.5, measurement_noise: float = 0.002, refine_centres: bool = True,
+                 min_hits: int = 3, desk_check: bool = True, min_z_m: float = -0.01, max_z_m: Optional[float] = None,
+                 merge_fragments: bool = True, roi_search: bool = False, full_frame_every: int = 10,
+                 roi_margin: float = 0.5, tracker: Optional[str] = None, reseed_every: int = 5,
+                 detect_every: int = 1, tracker_lost_after: int = 5):
         if not (max_dy_px > 0 and min_disparity_px >= 0 and size_ratio >= 1.0 and gate_m > 0):
             raise ValueError("max_dy_px and gate_m must be > 0, min_disparity_px ≥ 0 and size_ratio ≥ 1")
         if drop_after < 1 or velocity_history < 2:
             raise ValueError("drop_after must be ≥ 1 and velocity_history ≥ 2")
+        if not (isinstance(min_hits, int) and min_hits >= 1):
+            raise ValueError(f"min_hits = {min_hits!r} must be a whole number ≥ 1 (1: report new objects at once)")
+        if not (isinstance(full_frame_every, int) and full_frame_every >= 1):
+            raise ValueError(f"full_frame_every = {full_frame_every!r} must be a whole number ≥ 1 (1: every frame)")
+        if not (0.0 <= roi_margin <= 10.0):
+            raise ValueError(f"roi_margin = {roi_margin!r} must be 0…10 box sizes")
+        if not (isinstance(reseed_every, int) and reseed_every >= 1 and isinstance(detect_every, int)
+                and detect_every >= 1 and isinstance(tracker_lost_after, int) and tracker_lost_after >= 1):
+            raise ValueError("reseed_every, detect_every and tracker_lost_after must be whole numbers ≥ 1")
+        if tracker is not None:
+            tracker = str(tracker).strip().lower()
+            if tracker in ("", "none", "off"):
+                tracker = None
+            elif tracker not in TRACKER_KINDS:
+                raise ValueError(f"tracker = {tracker!r} is not one of {', '.join(TRACKER_KINDS)} (or None: no tracker)")
+            else:
+                from core.detect.tracking import available_trackers
+
+                if tracker.upper() not in available_trackers():
+                    raise ValueError(f"tracker {tracker} is not in this OpenCV build; available: "
+                                     f"{', '.join(k.lower() for k in available_trackers())}")
+        if detect_every > 1 and tracker is None:
+            raise ValueError(f"detect_every = {detect_every} needs a tracker (tracker='kcf', …) for the frames "
+                             "the detector skips")
         self.calibration = calibration
         # the marker perception's geometry (rectify points, triangulate, camera -> base); its
         # ArUco detectors are never run here
@@ -206,19 +373,53 @@ class StereoObjectPerception:
         self.process_noise = float(process_noise)
         self.measurement_noise = float(measurement_noise)
         self.refine_centres = bool(refine_centres)  # blobs: sub-pixel centroid (``blob_centre``)
-        self.tracks: dict[int, _ObjectTrack] = {}
+        self.min_hits = int(min_hits)
+        self.desk_check = bool(desk_check)  # pairs whose point is below the desk or above the cameras: not objects
+        self.min_z_m = float(min_z_m)
+        self.max_z_m = None if max_z_m is None else float(max_z_m)  # None: the left camera's height
+        self.merge_fragments = bool(merge_fragments)
+        self.roi_search = bool(roi_search)
+        self.full_frame_every = int(full_frame_every)
+        self.roi_margin = float(roi_margin)
+        self.tracker = tracker
+        self.reseed_every = int(reseed_every)
+        self.detect_every = int(detect_every)
+        self.tracker_lost_after = int(tracker_lost_after)
+        self.tracks: dict[int, _ObjectTrack] = {}  # confirmed tracks, by public id
+        self.tentative: dict[int, _ObjectTrack] = {}  # tracks waiting for min_hits, by internal key
         self.lost: dict[int, tuple[_ObjectTrack, float]] = {}  # dropped tracks, by id: (track, time lost)
+        self.frames = 0  # frames processed (repeated frames not counted)
+        self.full_frame_searches = 0
+        self.last_full_frame_search = True
+        self.last_detector_run = True
+        self.last_timings_ms: dict[str, float] = {}
         self._next_id = 1
+        self._next_key = 1
+        self._since_full = 0  # frames since the last full-frame search
+        self._since_detect = 0  # frames since the detectors last ran
         self._t: Optional[float] = None
         self._last: Optional[tuple[StereoFrame, list[ObjectObservation]]] = None
+        self._plain: set = set()  # id() of this frame's merged / tracker detections: no sub-pixel refinement
+        self._from_tracker: set = set()  # id() of this frame's tracker detections
 
     def reset(self) -> None:
         """Forget every track (ids start again at 1)."""
         self.tracks.clear()
+        self.tentative.clear()
         self.lost.clear()
         self._next_id = 1
+        self._next_key = 1
+        self._since_full = self._since_detect = 0
         self._t = None
         self._last = None
+
+    @property
+    def max_z(self) -> float:
+        """Highest plausible object point (robot_base z, m): ``max_z_m`` or the left camera's height."""
+        return float(self.base_T_camera[2, 3]) if self.max_z_m is None else self.max_z_m
+
+    def live_tracks(self) -> list[_ObjectTrack]:
+        return list(self.tracks.values()) + list(self.tentative.values())
 
     # --- geometry -------------------------------------------------------------------------
     def rectify(self, side: str, detections: Sequence[Detection], image: Optional[np.ndarray] = None) -> np.ndarray:
@@ -226,7 +427,8 @@ class StereoObjectPerception:
         in ``image`` when ``refine_centres``: see ``blob_centre``)."""
         if not detections:
             return np.zeros((0, 2))
-        centres = [blob_centre(image, d) if self.refine_centres else d.centre_px for d in detections]
+        centres = [blob_centre(image, d) if self.refine_centres and id(d) not in self._plain else d.centre_px
+                   for d in detections]
         return self.geometry.rectify_points(side, np.array(centres, dtype=float))
 
     def triangulate(self, rect_left: np.ndarray, rect_right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -243,10 +445,24 @@ class StereoObjectPerception:
         h = P @ np.append(rect, 1.0)
         return h[:2] / h[2]
 
+    def plausible(self, base_p: np.ndarray) -> np.ndarray:
+        """Which robot_base points (N, 3) can be objects: not below the desk plane (z < ``min_z_m``)
+        nor above ``max_z`` (the cameras' height); all when ``desk_check`` is off."""
+        base_p = np.asarray(base_p, float).reshape(-1, 3)
+        if not self.desk_check:
+            return np.ones(len(base_p), bool)
+        z = base_p[:, 2]
+        return np.isfinite(base_p).all(axis=1) & (z >= self.min_z_m) & (z <= self.max_z)
+
     # --- matching -------------------------------------------------------------------------
     def match(self, left: Sequence[Detection], right: Sequence[Detection],
               rect_left: np.ndarray, rect_right: np.ndarray) -> list[tuple[int, int, float]]:
-        """Pairs (i_left, j_right, cost) of one-to-one matches, cheapest first (greedy)."""
+        """Pairs (i_left, j_right, cost) of one-to-one matches, cheapest first (greedy).
+
+        A pair needs the same kind and label, rows within ``max_dy_px``, a disparity of at least
+        ``min_disparity_px``, radius and box sides within ``size_ratio`` (an object cut by the image
+        border or hidden differently in the two views is not one pair) and, with ``desk_check``,
+        a point that can be an object (``plausible``)."""
         log_ratio = math.log(self.size_ratio) if self.size_ratio > 1.0 else 1e-9
         candidates = []
         for i, dl in enumerate(left):
@@ -261,7 +477,16 @@ class StereoObjectPerception:
                 ratio = abs(math.log(_size(dl) / _size(dr)))
                 if ratio > log_ratio + 1e-12:
                     continue
+                sides = [abs(math.log(max(a, 1.0) / max(b, 1.0))) for a, b in zip(dl.box[2:], dr.box[2:])]
+                if max(sides) > log_ratio + 1e-12:
+                    continue
                 candidates.append((dy / self.max_dy_px + ratio / log_ratio, i, j))
+        if candidates and self.desk_check:
+            idx_l = [i for _, i, _ in candidates]
+            idx_r = [j for _, _, j in candidates]
+            _, base = self.triangulate(rect_left[idx_l], rect_right[idx_r])
+            ok = self.plausible(base)
+            candidates = [c for c, keep in zip(candidates, ok) if keep]
         candidates.sort()
         used_l, used_r, pairs = set(), set(), []
         for cost, i, j in candidates:
@@ -272,15 +497,132 @@ class StereoObjectPerception:
             pairs.append((i, j, cost))
         return pairs
 
-    # --- one frame ------------------------------------------------------------------------
-    def detect(self, image) -> list[Detection]:
+    # --- detection --------------------------------------------------------------------------
+    def detect(self, image, roi=None) -> list[Detection]:
+        """Every detector's detections in ``image`` (only inside ``roi`` = (x, y, w, h) when given)."""
         found: list[Detection] = []
         for detector in self.detectors:
-            found.extend(detector.detect(image))
+            found.extend(detector.detect(image) if roi is None else detector.detect(image, roi))
         return found
+
+    def search_windows(self, side: str, t: float, shape) -> list[tuple[int, int, int, int]]:
+        """The ROI search's windows in ``side`` at ``t``: each live track's predicted box grown by
+        ``roi_margin`` box sizes plus its image motion since it was last seen, overlaps merged."""
+        boxes = []
+        for track in self.live_tracks():
+            pb = track.predicted_box(side, t)
+            if pb is None:
+                continue
+            x, y, w, h = (float(v) for v in pb)
+            vel = track.image_velocity(side)
+            motion = 0.0
+            if vel is not None:
+                motion = float(np.hypot(*vel)) * max(t - track.view[side][0], 1.0 / 30.0)
+            m = self.roi_margin * max(w, h) + motion + ROI_MIN_MARGIN_PX
+            boxes.append([x - m, y - m, w + 2 * m, h + 2 * m])
+        out = []
+        for b in _merge_boxes(boxes):
+            try:
+                out.append(clip_roi(b, shape))
+            except ValueError:
+                continue  # predicted outside the image: the object left (the full search finds it back)
+        return out
+
+    def _detect_windows(self, image: np.ndarray, windows) -> tuple[list[Detection], bool]:
+        """Detections inside ``windows``; True as well when one touches a window edge that is not
+        the image's (cut off by the window: the frame needs a full search)."""
+        H, W = image.shape[:2]
+        found, cut = [], False
+        for wx, wy, ww, wh in windows:
+            for d in self.detect(image, (wx, wy, ww, wh)):
+                x, y, w, h = d.box
+                if ((wx > 0 and x <= wx + 1) or (wy > 0 and y <= wy + 1)
+                        or (wx + ww < W and x + w >= wx + ww - 1) or (wy + wh < H and y + h >= wy + wh - 1)):
+                    cut = True
+                found.append(d)
+        return found, cut
+
+    def _merge_fragments(self, side: str, t: float, dets: list[Detection]) -> list[Detection]:
+        """Per live track (oldest first): same-label blobs inside its predicted box whose union still
+        fits its size (``MERGE_SLACK``) become one detection (``merge_detections``)."""
+        tracks = sorted(self.live_tracks(), key=lambda tr: (not tr.confirmed, -tr.frames))
+        for track in tracks:
+            if not track.extent[side]:
+                continue
+            pb = track.predicted_box(side, t)
+            if pb is None:
+                continue
+            inside = [k for k, d in enumerate(dets)
+                      if d.kind == track.kind and d.label == track.label and d.contour is not None
+                      and _inside(d.centre_px, pb, MERGE_GROW)]
+            if len(inside) < 2:
+                continue
+            parts = [dets[k] for k in inside]
+            x0 = min(d.box[0] for d in parts)
+            y0 = min(d.box[1] for d in parts)
+            x1 = max(d.box[0] + d.box[2] for d in parts)
+            y1 = max(d.box[1] + d.box[3] for d in parts)
+            W, H = track.size(side)
+            if x1 - x0 > MERGE_SLACK * W + MERGE_PAD_PX or y1 - y0 > MERGE_SLACK * H + MERGE_PAD_PX:
+                continue  # together larger than the object: more than one object
+            merged = merge_detections(parts)
+            self._plain.add(id(merged))
+            dets = [d for k, d in enumerate(dets) if k not in inside] + [merged]
+        return dets
+
+    def _track_views(self, side: str, image: np.ndarray, t: float, dets: Optional[list[Detection]]) -> list[Detection]:
+        """Update each confirmed track's tracker in ``side``; where the detector missed the object
+        (or did not run: ``dets`` None), the tracker's box joins the detections."""
+        out = list(dets) if dets is not None else []
+        for track in self.tracks.values():
+            tracker = track.trackers[side]
+            if tracker is None:
+                continue
+            same = None if dets is None else [d for d in dets if d.kind == track.kind and d.label == track.label]
+            state = tracker.update(image, t, same)
+            if not state.ok or state.lost:
+                continue
+            box = state.box
+            if same and any(_inside(d.centre_px, box) or _inside(state.centre_px, d.box) for d in same):
+                continue  # the detector sees it: its detection is better than the tracker's box
+            radius = track.view[side][5] if track.view[side] is not None else 0.5 * math.hypot(box[2], box[3])
+            d = Detection(kind=track.kind, label=track.label, score=0.5, box=box, centre_px=state.centre_px,
+                          radius_px=radius)
+            self._plain.add(id(d))
+            self._from_tracker.add(id(d))
+            out.append(d)
+        return out
+
+    def _start_trackers(self, track: _ObjectTrack, images: dict, times: dict, dets: dict) -> None:
+        """Seed a confirmed track's missing trackers from this frame's detections of it."""
+        from core.detect.tracking import ObjectTracker
+
+        for side in SIDES:
+            d = dets.get(side)
+            if d is None or id(d) in self._from_tracker or track.trackers[side] is not None:
+                continue
+            tracker = ObjectTracker(self.tracker.upper(), reseed_every=self.reseed_every,
+                                    lost_after=self.tracker_lost_after)
+            try:
+                tracker.start(images[side], d.box, times[side])
+            except ValueError:
+                continue  # a box at the image border too small to track
+            track.trackers[side] = tracker
+
+    # --- one frame ------------------------------------------------------------------------
+    def _search_mode(self) -> str:
+        """"full", "roi" or "none" (trackers only) for the next frame."""
+        unsettled = not self.tracks or bool(self.tentative) or any(tr.missed > 0 for tr in self.tracks.values())
+        if (self.tracker is not None and self.detect_every > 1 and not unsettled
+                and self._since_detect + 1 < self.detect_every):
+            return "none"
+        if not self.roi_search or unsettled or self._since_full + 1 >= self.full_frame_every:
+            return "full"
+        return "roi"
 
     def process(self, frame: StereoFrame) -> list[ObjectObservation]:
         """Detect, match, triangulate and track the objects of one stereo frame."""
+        w0 = time.perf_counter()
         last = self._last
         if (frame.repeated and last is not None and last[0].left is frame.left
                 and last[0].right is frame.right):
@@ -289,92 +631,205 @@ class StereoObjectPerception:
         if self._t is not None and t < self._t:
             self.reset()  # time went backwards (a replay restarted): the tracks mean nothing now
         self._t = t
+        self.frames += 1
+        self._plain.clear()
+        self._from_tracker.clear()
         t_right = t + float(frame.skew_s)
-        left, right = self.detect(frame.left), self.detect(frame.right)
+        images = {"left": frame.left, "right": frame.right}
+        times = {"left": t, "right": t_right}
+
+        mode = self._search_mode()
+        dets: dict[str, Optional[list[Detection]]] = {"left": None, "right": None}
+        if mode == "roi":
+            cut = False
+            for side in SIDES:
+                windows = self.search_windows(side, times[side], images[side].shape)
+                dets[side], cut_here = self._detect_windows(images[side], windows)
+                cut = cut or cut_here
+            if cut:
+                mode = "full"  # a blob cut by its window: this frame gets a full search after all
+        if mode == "full":
+            dets = {side: self.detect(images[side]) for side in SIDES}
+            self._since_full = 0
+            self.full_frame_searches += 1
+        else:
+            self._since_full += 1
+        self._since_detect = 0 if mode != "none" else self._since_detect + 1
+        self.last_full_frame_search = mode == "full"
+        self.last_detector_run = mode != "none"
+        w1 = time.perf_counter()
+
+        if self.merge_fragments:
+            for side in SIDES:
+                if dets[side]:
+                    dets[side] = self._merge_fragments(side, times[side], dets[side])
+        if self.tracker is not None:
+            views = {side: self._track_views(side, images[side], times[side], dets[side]) for side in SIDES}
+        else:
+            views = {side: dets[side] or [] for side in SIDES}
+        w2 = time.perf_counter()
+        left, right = views["left"], views["right"]
         rect_l = self.rectify("left", left, frame.left)
         rect_r = self.rectify("right", right, frame.right)
         pairs = self.match(left, right, rect_l, rect_r)
 
         out: list[ObjectObservation] = []
-        if pairs:
-            idx_l = [i for i, _, _ in pairs]
-            idx_r = [j for _, j, _ in pairs]
-            _, base_raw = self.triangulate(rect_l[idx_l], rect_r[idx_r])
-            assignment = self._associate(t, [left[i] for i in idx_l], base_raw)
-        else:
-            assignment = []
+        assignment = self._associate(t, t_right, pairs, left, right, rect_l, rect_r) if pairs else []
         updated = set()
         for k, (i, j, _) in enumerate(pairs):
             track = assignment[k]
-            updated.add(track.object_id)
-            out.append(self._measure(track, t, t_right, frame.skew_s, left[i], right[j], rect_l[i], rect_r[j]))
+            if track is None:
+                continue  # a fragment of an object measured this frame
+            updated.add(track.key)
+            obs = self._measure(track, t, t_right, frame.skew_s, left[i], right[j], rect_l[i], rect_r[j])
+            track.note_view("left", t, left[i], id(left[i]) not in self._plain)
+            track.note_view("right", t_right, right[j], id(right[j]) not in self._plain)
+            if not track.confirmed and track.hits >= self.min_hits:
+                self._confirm(track)
+                obs = _with_id(obs, track.object_id)
+            if track.confirmed:
+                if self.tracker is not None:
+                    self._start_trackers(track, images, times, {"left": left[i], "right": right[j]})
+                out.append(obs)
 
-        # tracked objects seen in one view only: reported, not triangulated
+        # tracked objects not triangulated: tentative ones end, confirmed ones are reported from
+        # one view while they last
         used_l = {i for i, _, _ in pairs}
         used_r = {j for _, j, _ in pairs}
+        for key in [k for k in self.tentative if k not in updated]:
+            del self.tentative[key]
         for track in list(self.tracks.values()):
-            if track.object_id in updated:
+            if track.key in updated:
                 continue
             track.missed += 1
+            track.hits = 0
             if track.missed > self.drop_after:
                 del self.tracks[track.object_id]
+                track.trackers = {side: None for side in SIDES}
                 self.lost[track.object_id] = (track, t)  # it may come back (re-enters the view)
                 continue
-            single = self._single_view(track, t, left, right, rect_l, rect_r, used_l, used_r)
+            single = self._single_view(track, t, t_right, left, right, rect_l, rect_r, used_l, used_r)
             if single is not None:
                 out.append(single)
         out.sort(key=lambda o: o.object_id)
         self._last = (frame, out)
+        w3 = time.perf_counter()
+        self.last_timings_ms = {"detect": (w1 - w0) * 1e3, "track": (w2 - w1) * 1e3,
+                                "match": (w3 - w2) * 1e3, "total": (w3 - w0) * 1e3}
         return list(out)
 
-    def _associate(self, t: float, dets: Sequence[Detection], base_p: np.ndarray) -> list[_ObjectTrack]:
-        """The track of each matched pair (greedy nearest prediction within the gate; new tracks otherwise)."""
+    def _confirm(self, track: _ObjectTrack) -> None:
+        """A tentative track seen ``min_hits`` frames in a row gets its public id."""
+        self.tentative.pop(track.key, None)
+        track.object_id = self._next_id
+        self._next_id += 1
+        self.tracks[track.object_id] = track
+
+    def _covering(self, t: float, t_right: float, dl: Detection, dr: Detection) -> list[_ObjectTrack]:
+        """Live tracks of this pair's label whose predicted centres lie inside both its boxes."""
+        found = []
+        for track in self.live_tracks():
+            if track.kind != dl.kind or track.label != dl.label:
+                continue
+            pl, pr = track.predicted_box("left", t), track.predicted_box("right", t_right)
+            if pl is None or pr is None:
+                continue
+            if _inside(pl[:2] + pl[2:] / 2, dl.box) and _inside(pr[:2] + pr[2:] / 2, dr.box):
+                found.append(track)
+        return found
+
+    def _is_fragment(self, t: float, t_right: float, dl: Detection, dr: Detection, measured: list) -> bool:
+        """Does this pair lie inside the predicted boxes (both views) of a track measured this frame?"""
+        for track in measured:
+            if track.kind != dl.kind or track.label != dl.label:
+                continue
+            pl, pr = track.predicted_box("left", t), track.predicted_box("right", t_right)
+            if pl is None or pr is None:
+                continue
+            if _inside(dl.centre_px, pl, FRAGMENT_GROW) and _inside(dr.centre_px, pr, FRAGMENT_GROW):
+                return True
+        return False
+
+    def _associate(self, t: float, t_right: float, pairs, left, right, rect_l, rect_r) -> list[Optional[_ObjectTrack]]:
+        """The track of each matched pair: one blob covering several tracks of its label keeps the
+        oldest; else the nearest prediction within the gate (confirmed tracks first); else a live
+        or recently lost track near its last position; else, unless the pair is a fragment of an
+        object measured this frame (None), a new tentative track."""
+        idx_l = [i for i, _, _ in pairs]
+        idx_r = [j for _, j, _ in pairs]
+        _, base_p = self.triangulate(rect_l[idx_l], rect_r[idx_r])
+        dets = [(left[i], right[j]) for i, j, _ in pairs]
+        chosen: dict[int, _ObjectTrack] = {}
+        taken = set()
+        # one blob over several tracks of its label (a track started on a fragment, and its object
+        # seen whole again): they are one object, the oldest track keeps it
+        for k, (dl, dr) in enumerate(dets):
+            covered = [tr for tr in self._covering(t, t_right, dl, dr) if tr.key not in taken]
+            if len(covered) < 2:
+                continue
+            keeper = max(covered, key=lambda tr: (tr.confirmed, tr.frames, -tr.key))
+            for tr in covered:
+                if tr is not keeper:
+                    self._forget(tr)
+            chosen[k] = keeper
+            taken.add(keeper.key)
         candidates = []
-        for k, d in enumerate(dets):
-            for track in self.tracks.values():
-                if track.kind != d.kind or track.label != d.label:
+        for k, (dl, _) in enumerate(dets):
+            if k in chosen:
+                continue
+            for track in self.live_tracks():
+                if track.key in taken or track.kind != dl.kind or track.label != dl.label:
                     continue
                 pred = track.predicted(t)
                 if pred is None:
                     continue
                 dist = float(np.linalg.norm(base_p[k] - pred))
                 if dist < self.gate_m:
-                    candidates.append((dist, k, track.object_id))
+                    candidates.append((0 if track.confirmed else 1, dist, k, track.key))
         candidates.sort()
-        chosen: dict[int, _ObjectTrack] = {}
-        taken = set()
-        for dist, k, object_id in candidates:
-            if k in chosen or object_id in taken:
+        by_key = {tr.key: tr for tr in self.live_tracks()}
+        for _, dist, k, key in candidates:
+            if k in chosen or key in taken:
                 continue
-            chosen[k] = self.tracks[object_id]
-            taken.add(object_id)
-        # second chance before a new id: the same kind and label near where a live track was last
-        # measured (it sped up past its prediction), else a recently lost one (it left and came back)
-        for k, d in enumerate(dets):
-            if k in chosen:
-                continue
-            track = self._reacquire(t, d, base_p[k], taken)
-            if track is not None:
-                chosen[k] = track
-                taken.add(track.object_id)
-        result = []
-        for k, d in enumerate(dets):
+            chosen[k] = by_key[key]
+            taken.add(key)
+        measured = list(chosen.values())
+        result: list[Optional[_ObjectTrack]] = []
+        for k, (dl, dr) in enumerate(dets):
             if k not in chosen:
-                track = _ObjectTrack(self._next_id, d.kind, d.label,
-                                     ConstantVelocityKalman(self.process_noise, self.measurement_noise),
-                                     self.velocity_history)
-                self.tracks[track.object_id] = track
-                self._next_id += 1
+                if self.merge_fragments and self._is_fragment(t, t_right, dl, dr, measured):
+                    result.append(None)
+                    continue
+                # second chance before a new track: the same kind and label near where a live track
+                # was last measured (it sped up past its prediction), else a recently lost one
+                track = self._reacquire(t, dl, base_p[k], taken)
+                if track is None:
+                    track = _ObjectTrack(self._next_key, dl.kind, dl.label,
+                                         ConstantVelocityKalman(self.process_noise, self.measurement_noise),
+                                         self.velocity_history)
+                    self._next_key += 1
+                    if self.min_hits <= 1:
+                        self._confirm(track)
+                    else:
+                        self.tentative[track.key] = track
                 chosen[k] = track
+                taken.add(track.key)
             result.append(chosen[k])
         return result
 
+    def _forget(self, track: _ObjectTrack) -> None:
+        """Drop a track for good (absorbed into another: not remembered as lost)."""
+        if track.confirmed:
+            self.tracks.pop(track.object_id, None)
+        else:
+            self.tentative.pop(track.key, None)
+
     def _reacquire(self, t: float, d: Detection, p: np.ndarray, taken: set) -> Optional[_ObjectTrack]:
-        """A live track of this label within ``REACQUIRE_M`` of its last position, or one lost in
+        """A confirmed track of this label within ``REACQUIRE_M`` of its last position, or one lost in
         the last ``LOST_KEEP_S`` — the nearest; None when there is none."""
         best, best_dist = None, math.inf
         for track in self.tracks.values():
-            if track.object_id in taken or track.kind != d.kind or track.label != d.label:
+            if track.key in taken or track.kind != d.kind or track.label != d.label:
                 continue
             last = track.kf.position
             dist = math.inf if last is None else float(np.linalg.norm(p - last))
@@ -386,7 +841,7 @@ class StereoObjectPerception:
             if t - t_lost > LOST_KEEP_S:
                 del self.lost[object_id]
                 continue
-            if object_id in taken or track.kind != d.kind or track.label != d.label:
+            if track.key in taken or track.kind != d.kind or track.label != d.label:
                 continue
             last = track.kf.position
             dist = math.inf if last is None else float(np.linalg.norm(p - last))
@@ -395,6 +850,7 @@ class StereoObjectPerception:
         if best is not None:
             del self.lost[best.object_id]
             best.missed = 0
+            best.hits = 0
             best.left_hist.clear()
             best.right_hist.clear()
             best.kf.reset()  # a fresh start where it came back
@@ -425,21 +881,24 @@ class StereoObjectPerception:
         track.right_hist.append((t_right, float(rr[0]), float(rr[1])))
         track.missed = 0
         track.frames += 1
+        track.hits += 1
         return ObjectObservation(
-            object_id=track.object_id, kind=dl.kind, label=dl.label, score=min(dl.score, dr.score),
+            object_id=-1 if track.object_id is None else track.object_id, kind=dl.kind, label=dl.label,
+            score=min(dl.score, dr.score),
             left=dl, right=dr, camera_p=_point(camera_p[0]), base_p=_point(base_p[0]),
             velocity_base=None if track.frames < 2 or v is None else _point(v),
             epipolar_dy_px=float(rl[1] - rr[1]), seen_left=True, seen_right=True, triangulated=True,
             disparity_px=float(pl[0] - pr[0]), skew_compensated=compensated, frames_tracked=track.frames,
+            from_tracker=id(dl) in self._from_tracker or id(dr) in self._from_tracker,
         )
 
-    def _single_view(self, track: _ObjectTrack, t: float, left, right, rect_l, rect_r,
+    def _single_view(self, track: _ObjectTrack, t: float, t_right: float, left, right, rect_l, rect_r,
                      used_l: set, used_r: set) -> Optional[ObjectObservation]:
         """The track's object when one view still sees it near the predicted position."""
         pred = track.predicted(t)
         if pred is None:
             return None
-        for side, dets, rect, used in (("left", left, rect_l, used_l), ("right", right, rect_r, used_r)):
+        for side, dets, rect, used, t_side in (("left", left, rect_l, used_l, t), ("right", right, rect_r, used_r, t_right)):
             expected = self.project_rectified(side, pred)
             best, best_d = None, None
             for i, d in enumerate(dets):
@@ -451,6 +910,7 @@ class StereoObjectPerception:
             if best is not None:
                 used.add(best)
                 d = dets[best]
+                track.note_view(side, t_side, d, False)
                 camera_p = np.linalg.solve(self.base_T_camera[:3, :3], pred - self.base_T_camera[:3, 3])
                 v = track.kf.velocity
                 return ObjectObservation(
@@ -460,5 +920,10 @@ class StereoObjectPerception:
                     velocity_base=None if track.frames < 2 or v is None else _point(v),
                     epipolar_dy_px=None, seen_left=side == "left", seen_right=side == "right",
                     triangulated=False, frames_tracked=track.frames,
+                    from_tracker=id(d) in self._from_tracker,
                 )
         return None
+
+
+def _with_id(obs: ObjectObservation, object_id: int) -> ObjectObservation:
+    return replace(obs, object_id=object_id)

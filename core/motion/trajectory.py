@@ -6,7 +6,9 @@
 - ``PointToPoint``: cubic (zero end velocities, as in the delta-robot paper) or quintic (zero
   end velocities and accelerations) between two vectors — joints or a Cartesian point —
   synchronised over all axes; ``joint_move`` picks the shortest duration that keeps every
-  joint within its velocity and acceleration limits.
+  joint within its velocity and acceleration limits; ``straight_move`` is a Cartesian one along a
+  straight line, its duration from the distance and a tool speed and acceleration (the approach to
+  an object that stopped, ``core.motion.targeting``).
 - ``stream(trajectory, rate_hz=50)`` yields setpoints on the 50 Hz control grid, ending
   exactly at the goal; ``follow_cartesian`` turns a Cartesian path into joint setpoints with
   warm-started IK and a per-tick joint velocity limit.
@@ -151,6 +153,30 @@ def joint_move(
     if duration is not None:
         T = max(T, float(duration))
     return PointToPoint(q_start, goal, T, shape)
+
+
+def straight_move(start: Sequence[float], goal: Sequence[float], max_speed: float, max_acceleration: float,
+                  shape: str = "cubic", min_duration_s: float = 0.0) -> PointToPoint:
+    """A straight-line move from ``start`` to ``goal`` (points, m) with zero end velocities whose
+    speed along the line stays within ``max_speed`` (m/s) and ``max_acceleration`` (m/s²).
+
+    The limits apply to the speed along the path (the norm), not per axis as in ``min_duration``:
+    a cubic's peak speed is 1.5·d/T and its peak acceleration 6·d/T², so
+    T = max(1.5·d/v, √(6·d/a), ``min_duration_s``). ValueError for limits ≤ 0 or non-finite points.
+    """
+    if not (max_speed > 0 and max_acceleration > 0 and math.isfinite(max_speed) and math.isfinite(max_acceleration)):
+        raise ValueError(f"max_speed = {max_speed!r} m/s and max_acceleration = {max_acceleration!r} m/s² "
+                         "must be finite and > 0")
+    if shape not in SHAPES:
+        raise ValueError(f"shape = {shape!r} must be one of {', '.join(SHAPES)}")
+    a = np.asarray(start, dtype=float).reshape(-1)
+    b = np.asarray(goal, dtype=float).reshape(-1)
+    if a.shape != b.shape or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError(f"start {tuple(a)} and goal {tuple(b)} must be finite points of the same size")
+    d = float(np.linalg.norm(b - a))
+    T = max(_PEAK_VEL[shape] * d / max_speed, math.sqrt(_PEAK_ACC[shape] * d / max_acceleration),
+            max(0.0, float(min_duration_s)))
+    return PointToPoint(tuple(a), tuple(b), T, shape)
 
 
 def stream(trajectory, rate_hz: float = STREAM_RATE_HZ, t0: float = 0.0) -> Iterator[Setpoint]:

@@ -463,7 +463,8 @@ class ObjectsScenario(Scenario):
     """
 
     name = "objects"
-    CARD_SPOTS = ((-0.27, 0.20), (0.28, 0.13), (-0.27, 0.30), (0.28, 0.30))
+    # within the arm's reach (the default pointing offset included), clear of the things, seen by both cameras
+    CARD_SPOTS = ((0.04, 0.25), (-0.125, 0.225), (0.175, 0.15), (0.15, 0.05))
     CARD_YAWS = (0.2, -0.3, 0.1, -0.15)
     BALL_RADIUS_M = 0.025
     RED_CENTRE, RED_RADII, RED_PERIOD_S = (-0.15, 0.13), (0.06, 0.035), 5.0
@@ -570,10 +571,12 @@ class PanelScenario(Scenario):
     HAND_BUTTON = 4
     HAND_TIP_PAST_M = 0.012  # the fingertips reach this far past HAND_BUTTON's centre (along +x)
     VIEWPOINT = ObjectsScenario.VIEWPOINT
+    # within the arm's reach, clear of the panel and the handle, seen by both cameras
+    CARD_SPOTS = ((0.04, 0.25), (-0.15, 0.05), (0.15, 0.05), (-0.11, 0.235))
 
     def __init__(self, marker_ids: Sequence[int], seed: int = 0):
         super().__init__(marker_ids, seed)
-        spots = ObjectsScenario.CARD_SPOTS
+        spots = self.CARD_SPOTS
         if len(self.marker_ids) > len(spots):
             raise ValueError(f"the panel scenario has room for {len(spots)} markers, got {len(self.marker_ids)}")
         self._cards = tuple(Card(mid, *spots[i], yaw=ObjectsScenario.CARD_YAWS[i])

@@ -25,6 +25,12 @@ def rig():
 
 
 def _perception(rig, **kw) -> StereoObjectPerception:
+    """The perception under test. Most tests here check one frame's geometry with balls floating
+    in front of the camera (at 0.6 m depth below the simulated desk plane): unless a test asks
+    otherwise, new objects are reported from their first frame (min_hits=1) and any 3D point counts
+    (desk_check off)."""
+    kw.setdefault("min_hits", 1)
+    kw.setdefault("desk_check", False)
     return StereoObjectPerception(rig.calibration(), rig.base_T_camera,
                                   [HsvDetector(HsvParams(colours=DEFAULT_COLOURS))], **kw)
 
