@@ -11,6 +11,11 @@ The Camera tab opens the calibration wizard (its own worker, fed with the live f
 calibration is handed to the perception worker, which switches perception, disparity and the
 calibration health monitor to it without a restart. The Stereo tab's presets are read and
 written here (widgets never touch files), per camera pair.
+
+Marker-less objects (issue 11): the Objects tab's detector panel asks the perception worker for
+detectors (built and re-tuned there, between frames); their objects are drawn in both camera
+views; the Target tab's Object mode follows one, chosen in its list or by a tap on its box; and
+"Pick colour" turns the next tap on a camera view into a named HSV colour.
 """
 from __future__ import annotations
 
@@ -27,6 +32,7 @@ from app.hand_eye import HandEyeController
 from app.preferences import WindowPreferences
 from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
+from core.detect.colour import colour_from_pixel
 from core.messages import TargetMode
 from core.motion.pick_place import PickPlaceSequence
 from core.vision.markers import default_markers
@@ -44,7 +50,8 @@ from widgets.arm_twin import ArmTwin, profile_joint_levels, same_points
 from widgets.arm_twin_3d import available_3d, make_twin_3d
 from widgets.bridge_picker import BridgePicker
 from widgets.camera_controls import CameraSettingsPanel
-from widgets.camera_view import CameraView, MarkerOverlay
+from widgets.camera_view import CameraView, MarkerOverlay, ObjectOverlay
+from widgets.detector_panel import DetectorPanel
 from widgets.device_controls import DeviceControlsPanel
 from widgets.estop import EStopButton, RearmButton
 from widgets.help_dialog import HelpDialog
@@ -64,6 +71,9 @@ LEGEND_TICKS = 5
 TWIN_MIN_HEIGHT_PX = 120
 MODAL_PAUSE = "a dialog is open"  # ArmController.pause reason while a modal dialog without STOP is up
 FIT_DELAY_MS = 150  # after a show/move/resize: the window manager has framed the window by then
+COMPACT_VIEW_PX = 420  # narrower camera views label markers by id and objects by id and name only
+PICK_TOLERANCE_HUE = 10  # "Pick colour": hue ± this (OpenCV's 0…179) around the tapped pixels
+NO_DETECTOR_HINT = "no object detector is on — switch one on in the Objects tab (e.g. hsv)"
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -94,6 +104,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._health_message = ""
         self._note = ""
         self._probe: Optional[tuple[float, float]] = None  # tapped pixel of the disparity map
+        self._tap_used = False  # the current tap on a camera view picked a colour or an object
+        self._detectors_running: list[str] = []  # what the perception worker runs (names)
         self.depth_sample = None  # DepthSample at the probe, for tests and the readout
         self._dirty = False
         self.calibration_controller: Optional[CalibrationController] = None
@@ -121,6 +133,12 @@ class MainWindow(QtWidgets.QMainWindow):
         p.sigControlApplied.connect(self.on_control_applied)
         p.sigControlError.connect(self.on_control_error)
         p.sigCalibrationApplied.connect(self.on_calibration_applied)
+        p.sigDetectorsApplied.connect(self.on_detectors_applied)
+        p.sigDetectorError.connect(self.on_detector_error)
+        running = [(d.spec_name, d.params) for d in p.object_detectors()]  # --detector
+        self._detectors_running = [name for name, _ in running]
+        self.detector_panel.set_detectors(running)
+        self._update_object_hint()
         self._load_initial_preset()
         self._update_legend()
         self._update_calibration_label()
@@ -209,7 +227,8 @@ class MainWindow(QtWidgets.QMainWindow):
         for v in (self.view_left, self.view_right):
             cams.addWidget(v)
             v.sigDisplayModeChanged.connect(self.on_display_mode)
-            v.sigMarkerClicked.connect(self.on_marker_clicked)
+            v.sigMarkerClicked.connect(self.on_view_marker_tapped)
+            v.sigObjectClicked.connect(self.on_object_tapped)
             v.sigClicked.connect(self.on_view_clicked)
         left_layout.addLayout(cams, 3)
         self.replay_bar = self._build_replay_bar()  # only for --camera replay:PATH
@@ -273,8 +292,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.markers_table = MarkersTable()
         self.markers_table.set_config(s.markers or default_markers())
         self.markers_table.sigMarkerChosen.connect(self.on_marker_chosen)
-        pages += [(self.markers_table, "Markers"), (self.camera_page, "Camera"), (self.stereo_panel, "Stereo"),
-                  (robot_page, "Robot")]
+        self.detector_panel = DetectorPanel()  # marker-less objects: detectors and their settings
+        self.detector_panel.sigDetectorsChanged.connect(self.on_detectors_changed)
+        self.detector_panel.sigPickToggled.connect(self.on_pick_toggled)
+        pages += [(self.markers_table, "Markers"), (self.detector_panel, "Objects"), (self.camera_page, "Camera"),
+                  (self.stereo_panel, "Stereo"), (robot_page, "Robot")]
         for widget, title in pages:
             # vertical-only and never narrower than its page, so the splitter leaves the panel
             # room for it (no sideways scrolling, no clipped buttons at 800x480)
@@ -302,6 +324,7 @@ class MainWindow(QtWidgets.QMainWindow):
         tp.sigModeChanged.connect(self.on_mode_changed)
         tp.sigManualTargetChanged.connect(self.on_manual_target)
         tp.sigFollowIdChanged.connect(self.on_follow_id)
+        tp.sigFollowObjectChanged.connect(self.on_follow_object)
         tp.sigLissajousChanged.connect(self.on_lissajous)
         tp.sigLissajousRunning.connect(self.on_lissajous_running)
         tp.set_mode(s.targeter.mode.value)
@@ -643,6 +666,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self.target_panel.set_cups_hint(hint)
             if hint:
                 self._show_note(hint)
+        if TargetMode(mode) is TargetMode.OBJECT:
+            chosen = self.target_panel.follow_object
+            if chosen is not None:
+                self.session.targeter.set_follow_object(*chosen)
+            if not self._detectors_running:
+                self._show_note(NO_DETECTOR_HINT)
 
     @QtCore.Slot(object)
     def on_manual_target(self, p) -> None:
@@ -657,6 +686,89 @@ class MainWindow(QtWidgets.QMainWindow):
     @QtCore.Slot(int)
     def on_follow_id(self, marker_id: int) -> None:
         self.session.targeter.set_follow_id(marker_id)
+
+    @QtCore.Slot(str, object)
+    def on_follow_object(self, label: str, object_id) -> None:
+        """The Target tab's object list: follow that track (or any object of that label)."""
+        self.session.targeter.set_follow_object(label, object_id)
+
+    # --- marker-less objects: detectors, colour picking, taps on objects ----------------------
+    @QtCore.Slot(object)
+    def on_detectors_changed(self, specs) -> None:
+        """The Objects tab wants these detectors (list of (name, options)): the perception
+        worker builds or re-tunes them before its next frame."""
+        if self.detector_panel.message() and not self.detector_panel.picking:
+            self.detector_panel.set_message("")  # an old problem: the new request answers anew
+        self.workers.perception.request_detectors(specs)
+
+    @QtCore.Slot(object)
+    def on_detectors_applied(self, running) -> None:
+        """The perception worker now runs these detectors ((name, settings) list)."""
+        self._detectors_running = [name for name, _ in running]
+        self.detector_panel.set_running(self._detectors_running)
+        self._update_object_hint()
+        self._mark_dirty()
+
+    @QtCore.Slot(str)
+    def on_detector_error(self, message: str) -> None:
+        """A detector could not be built or failed while detecting (it is off now): say so in
+        the Objects tab and the banner; everything else keeps running."""
+        self.detector_panel.set_message(message, error=True)
+        self._show_note(message)
+
+    def _update_object_hint(self) -> None:
+        self.target_panel.set_object_hint("" if self._detectors_running else NO_DETECTOR_HINT)
+
+    @QtCore.Slot(bool)
+    def on_pick_toggled(self, on: bool) -> None:
+        if on:
+            self._show_note(f"Pick colour: tap the object in a camera view — it sets the colour "
+                            f"“{self.detector_panel.pick_name()}”")
+
+    def pick_colour_at(self, view: CameraView, x_px: float, y_px: float) -> bool:
+        """"Pick colour": the colour around pixel (x, y) of ``view``'s image becomes the named
+        colour of the HSV detector (added or updated, the detector switched on). False (and a
+        note) when there is no image there."""
+        r = self._result
+        if view.display_mode != "image":
+            self._show_note("Pick colour: switch the view back to the camera image, then tap the object")
+            return False
+        if r is None or r.frame is None:
+            self._show_note("Pick colour: no camera image yet")
+            return False
+        image = r.frame.left if view is self.view_left else r.frame.right
+        name = self.detector_panel.pick_name()
+        try:
+            colour = colour_from_pixel(image, x_px, y_px, tolerance=PICK_TOLERANCE_HUE, name=name)
+        except ValueError as exc:
+            self._show_note(f"Pick colour: {exc}")
+            return False
+        self.detector_panel.add_picked_colour(colour)
+        self._show_note(f"colour “{name}” picked at ({x_px:.0f}, {y_px:.0f}) px: hue {colour.h_lo}…{colour.h_hi}, "
+                        f"saturation ≥ {colour.s_lo}, value ≥ {colour.v_lo}")
+        return True
+
+    @QtCore.Slot(int)
+    def on_object_tapped(self, object_id: int) -> None:
+        """A tap on an object's box: in Object mode the arm follows that object."""
+        if self._tap_used:  # the tap picked a colour
+            return
+        obs = None if self._result is None else self._result.object_observation(object_id)
+        label = obs.label if obs is not None else ""
+        name = f"{label or 'object'} #{object_id}"
+        self._tap_used = True  # not also a marker tap
+        if self.session.targeter.mode is not TargetMode.OBJECT:
+            self._show_note(f"{name}: choose the Target tab's Object mode to follow it")
+            return
+        self.target_panel.set_follow_object(label, object_id)  # the list shows it
+        self.session.targeter.set_follow_object(label, object_id)
+        self._show_note(f"following {name}")
+
+    @QtCore.Slot(int)
+    def on_view_marker_tapped(self, marker_id: int) -> None:
+        """A tap on a marker in a camera view (not when the same tap picked a colour or an object)."""
+        if not self._tap_used:
+            self.on_marker_clicked(marker_id)
 
     @QtCore.Slot(object)
     def on_lissajous(self, params) -> None:
@@ -937,9 +1049,18 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(float, float)
     def on_view_clicked(self, x_px: float, y_px: float) -> None:
-        """A tap on a view in disparity mode measures the depth there (kept live until the next tap)."""
+        """A tap on a view: with "Pick colour" on, a colour sample; in disparity mode it
+        measures the depth there (kept live until the next tap). Comes before the view's
+        object and marker taps, which it may consume."""
         view = self.sender()
-        if not isinstance(view, CameraView) or view.display_mode != "disparity":
+        self._tap_used = False
+        if not isinstance(view, CameraView):
+            return
+        if self.detector_panel.picking:
+            self._tap_used = True
+            self.pick_colour_at(view, x_px, y_px)
+            return
+        if view.display_mode != "disparity":
             return
         self._probe = (x_px, y_px)
         self._update_probe()
@@ -1136,6 +1257,12 @@ class MainWindow(QtWidgets.QMainWindow):
         r = self._result
         self._drawn_result, self._drawn_state = r, self._state
         self._drawn_command, self._drawn_goal = self._command, self._goal
+        followed = None
+        if r is not None:
+            self.target_panel.set_objects_seen([(o.label, o.object_id) for o in r.objects])
+            if r.objects and s.targeter.mode is TargetMode.OBJECT:
+                obs = r.object_observation(s.targeter.follow_object_id, s.targeter.follow_object_label)
+                followed = None if obs is None else obs.object_id
         if r is not None and r.frame is not None:
             params = self.stereo_panel.params()
             max_disparity = float(params.num_disparities + params.min_disparity)
@@ -1149,10 +1276,15 @@ class MainWindow(QtWidgets.QMainWindow):
                     view.show_disparity(r.disparity, max_disparity)
                 else:
                     view.show_image(img)
-                compact = view.width() < 420  # small views: ids only, positions are in the twin
+                compact = view.width() < COMPACT_VIEW_PX  # small views: ids only, positions are in the twin
                 overlays = [o for o in (MarkerOverlay.from_observation(m, side, "" if compact else None)
                                         for m in r.markers) if o is not None]
                 view.set_markers(overlays)
+                # objects: id, name and score; position and speed too in a wide view, or for the
+                # object being followed
+                view.set_objects([o for o in (ObjectOverlay.from_observation(obs, side, not compact or
+                                                                             obs.object_id == followed)
+                                              for obs in r.objects) if o is not None])
         if r is not None and self.tabs.currentWidget().widget() is self.markers_table:
             tool = (None if self._state is None
                     else tuple(float(v) for v in np.asarray(s.kinematics.fk(self._state.q), float)[:3]))
@@ -1194,6 +1326,8 @@ class MainWindow(QtWidgets.QMainWindow):
                     f"out of reach by {cmd.reach_error_m * 1e3:.0f} mm — going to the nearest point", False)
             elif goal.mode is TargetMode.LISSAJOUS and getattr(self, "_preview_note", ""):
                 self.target_panel.set_reach_status(self._preview_note, False)
+            elif goal.mode is TargetMode.OBJECT:  # "following red ball #3"
+                self.target_panel.set_reach_status(following_text(goal), True)
             else:
                 self.target_panel.set_reach_status(f"on target{' · ' + goal.note if goal.note else ''}", True)
         cmd_deg = joint_display_values(s.profile, cmd.q) if cmd is not None else None
@@ -1236,10 +1370,23 @@ def _same_markers(a, b) -> bool:
         for x, y in zip(a, b))
 
 
+def _same_detection(a, b) -> bool:
+    return a is b or (a is not None and b is not None and a.label == b.label and a.box == b.box)
+
+
+def _same_objects(a, b) -> bool:
+    """Two tuples of ObjectObservation draw the same (id, label, boxes in both views, position)."""
+    return len(a) == len(b) and all(
+        x is y or (x.object_id == y.object_id and x.label == y.label and x.triangulated == y.triangulated
+                   and _same_detection(x.left, y.left) and _same_detection(x.right, y.right)
+                   and same_points(x.base_p, y.base_p))
+        for x, y in zip(a, b))
+
+
 def result_changed(drawn, result) -> bool:
     """True when a PerceptionResult shows something the drawn one did not: other images (not
     the very same arrays, unless the frame is flagged ``repeated``), another disparity map or
-    other markers (unless perception ``reused`` its answer). Pixels are never compared."""
+    other markers or objects (unless perception ``reused`` its answer). Pixels are never compared."""
     if drawn is None or result is None:
         return drawn is not result
     f0, f1 = drawn.frame, result.frame
@@ -1249,7 +1396,8 @@ def result_changed(drawn, result) -> bool:
         return True
     if result.disparity is not drawn.disparity:
         return True
-    return not (result.reused or _same_markers(result.markers, drawn.markers))
+    return not (result.reused or (_same_markers(result.markers, drawn.markers)
+                                  and _same_objects(result.objects, drawn.objects)))
 
 
 def command_changed(drawn_command, drawn_goal, command, goal) -> bool:
@@ -1271,6 +1419,12 @@ def command_changed(drawn_command, drawn_goal, command, goal) -> bool:
 def state_changed(drawn, state) -> bool:
     """True when a JointState shows something the drawn one did not (joints, feedback or not)."""
     return drawn is None or state.measured != drawn.measured or not same_points(state.q, drawn.q)
+
+
+def following_text(goal) -> str:
+    """"following red ball #3" for a valid Object-mode goal (its note names the object)."""
+    note = goal.note or "object"
+    return note if note.startswith("following") else f"following {note}"
 
 
 def format_depth(depth_m: float) -> str:

@@ -14,6 +14,11 @@ Signals (all emitted from the worker's own thread, received queued in the GUI th
 - PerceptionWorker.sigControlApplied(CameraControl) — a requested control as the device took it
   (clamped); sigControlError(str) when it refused
 - PerceptionWorker.sigCalibrationApplied(StereoCalibration) — a new calibration is in use
+- PerceptionWorker.sigDetectorsApplied(list[tuple[str, params]]) — the marker-less object
+  detectors now in use (their frozen settings), by the name they were requested with (after a request, or after one
+  failed and was turned off); an empty list: object perception is off
+- PerceptionWorker.sigDetectorError(str) — a detector could not be built or raised while
+  detecting (it is left out; the others keep running)
 - ControlWorker.sigCommand(JointCommand, Goal) — one per control tick that produced a command
 - BridgeWorker.sigState(JointState) — after each write (and at 10 Hz while idle)
 - BridgeWorker.sigStatus(BridgeStatus) — connection state, about 2 Hz
@@ -27,11 +32,13 @@ from typing import Generic, Optional, TypeVar
 
 from PySide6 import QtCore
 
+from core.detect.registry import make_detector
+from core.detect.stereo import StereoObjectPerception
 from core.devices.bridge import BridgeError
 from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
 from core.motion.schedule import rate_cap_interval
-from core.session import DeskSession
+from core.session import DeskSession, object_perception_options
 from core.settings import SgbmParams, StereoMatchParams
 from core.vision.calibration_health import CalibrationHealth
 from core.vision.cameras import CameraError
@@ -39,6 +46,52 @@ from core.vision.disparity import DisparityComputer
 from core.vision.perception import StereoMarkerPerception
 
 HEALTH_REPEAT_S = 1.0  # while drifted, the banner's numbers are refreshed at most this often
+
+DetectorSpec = tuple  # (registry name, {settings field: value}) as the detector panel asks for one
+
+
+class GuardedDetector:
+    """A detector whose ``detect`` never raises: a failure is kept in ``error`` and yields no
+    detections, so one bad detector (a broken ONNX model, an out-of-memory) costs only itself —
+    the perception worker reports it and turns that detector off instead of dying."""
+
+    def __init__(self, detector, spec_name: str):
+        self.inner = detector
+        self.spec_name = spec_name  # the name it was requested with ("hsv", "onnx:/path/model.onnx")
+        self.name = getattr(detector, "name", spec_name)
+        self.error: Optional[str] = None
+
+    @property
+    def params(self):
+        return self.inner.params
+
+    def with_params(self, **changes) -> "GuardedDetector":
+        return GuardedDetector(self.inner.with_params(**changes), self.spec_name)
+
+    def detect(self, image_bgr, roi=None):
+        if self.error is not None:
+            return []
+        try:
+            return self.inner.detect(image_bgr, roi)
+        except Exception as exc:  # noqa: BLE001 - any failure of a user's model must not kill the worker
+            self.error = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+            return []
+
+
+def new_object_perception(session: DeskSession, calibration, base_T_camera, detectors) -> StereoObjectPerception:
+    """An object perception as the session builds one: with the options its command line chose
+    (tracker, ROI search, skew compensation: ``object_perception_options``) and these detectors."""
+    return StereoObjectPerception(calibration, base_T_camera, detectors, **object_perception_options(session.options))
+
+
+def build_detector(spec_name: str, options: dict, current=None):
+    """The detector ``spec_name`` with the settings ``options`` (fields of its params that it
+    lacks are ignored): ``current`` changed by ``with_params`` when given (an ONNX model keeps
+    its loaded network when only thresholds change), else a new one from the registry."""
+    detector = current if current is not None else make_detector(spec_name)
+    params = detector.params
+    changes = {k: v for k, v in options.items() if hasattr(params, k) and getattr(params, k) != v}
+    return detector.with_params(**changes) if changes else detector
 
 T = TypeVar("T")
 
@@ -124,6 +177,8 @@ class PerceptionWorker(_LoopThread):
     sigControlApplied = QtCore.Signal(object)
     sigControlError = QtCore.Signal(str)
     sigCalibrationApplied = QtCore.Signal(object)
+    sigDetectorsApplied = QtCore.Signal(object)
+    sigDetectorError = QtCore.Signal(str)
 
     def __init__(self, session: DeskSession, results: Latest, parent=None):
         super().__init__("perception", parent)
@@ -137,11 +192,16 @@ class PerceptionWorker(_LoopThread):
         self._pending_controls: dict[str, tuple[str, float]] = {}  # name -> ("value" | "auto", value)
         self._pending_stereo: Optional[tuple[Optional[SgbmParams], Optional[StereoMatchParams]]] = None
         self._pending_calibration = None
+        self._pending_detectors: Optional[list[DetectorSpec]] = None  # None: no request
         self._want_controls = True  # read them once frames arrive
         self._error_reported = ""  # the camera problem last reported ("" = none)
         self._health_drifted = False
         self._health_sent_t = 0.0
         self.on_result = None  # called (in this thread) after each result is published
+        if session.object_perception is not None:  # --detector: guard what the session built
+            op = session.object_perception
+            op.detectors = [d if isinstance(d, GuardedDetector) else GuardedDetector(d, name)
+                            for d, name in zip(op.detectors, session.options.detectors)]
 
     def set_disparity_enabled(self, enabled: bool) -> None:
         if enabled:
@@ -187,6 +247,23 @@ class PerceptionWorker(_LoopThread):
         with self._settings_lock:
             self._pending_calibration = calibration
 
+    def request_detectors(self, specs) -> None:
+        """Run these marker-less object detectors from the next frame on (any thread).
+
+        ``specs`` is a list of (registry name, {settings field: value}): "hsv", "circles",
+        "aruco", "onnx:PATH", …; a detector already running is changed with ``with_params``,
+        a new one is built from the registry (an error is reported on sigDetectorError and that
+        detector left out). An empty list turns object perception off.
+        """
+        with self._settings_lock:
+            self._pending_detectors = [(str(name), dict(options)) for name, options in specs]
+
+    def object_detectors(self) -> list:
+        """The (guarded) detectors object perception runs now ([] when it is off); read them
+        in tests and the window, never change them from another thread."""
+        op = self.session.object_perception
+        return [] if op is None else list(op.detectors)
+
     def wake(self) -> None:
         self.session.camera.interrupt()
 
@@ -197,6 +274,7 @@ class PerceptionWorker(_LoopThread):
             controls, self._pending_controls = self._pending_controls, {}
             stereo, self._pending_stereo = self._pending_stereo, None
             calibration, self._pending_calibration = self._pending_calibration, None
+            detectors, self._pending_detectors = self._pending_detectors, None
         if settings is not None:
             s.camera.set_settings(settings)
         for key, (kind, value) in sorted(controls.items(), key=lambda kv: kv[1][0] != "auto"):
@@ -213,6 +291,51 @@ class PerceptionWorker(_LoopThread):
             self.disparity.set_all(params or self.disparity.params, match or self.disparity.match)
         if calibration is not None:
             self._use_calibration(calibration)
+        if detectors is not None:
+            self._use_detectors(detectors)
+
+    def _use_detectors(self, specs: list[DetectorSpec]) -> None:
+        """Build (or re-tune) the requested detectors and hand them to the object perception."""
+        s = self.session
+        op = s.object_perception
+        current = {} if op is None else {d.spec_name: d for d in op.detectors if isinstance(d, GuardedDetector)}
+        built, problems = [], []
+        for name, options in specs:
+            old = current.get(name)
+            try:
+                new = build_detector(name, options, None if old is None else old.inner)
+            except Exception as exc:  # noqa: BLE001 - a bad file or setting: say so, keep the others
+                problems.append(f"detector {name}: {exc}")
+                continue
+            built.append(old if old is not None and new is old.inner else GuardedDetector(new, name))
+        if not built:
+            s.object_perception = None
+        elif op is None:
+            s.object_perception = new_object_perception(s, s.calibration, s.perception.base_T_camera, built)
+        else:
+            other_set = [d.spec_name for d in op.detectors] != [d.spec_name for d in built]
+            op.detectors = built
+            if other_set:  # a detector on or off: start the ids again. A re-tuned one (a slider)
+                op.reset()  # keeps the tracks, so the object being followed keeps its id
+        self._emit_detectors()  # first what runs (a failed detector is off), then why
+        for message in problems:
+            self.sigDetectorError.emit(message)
+
+    def _emit_detectors(self) -> None:
+        self.sigDetectorsApplied.emit([(d.spec_name, d.params) for d in self.object_detectors()])
+
+    def _check_detector_errors(self) -> None:
+        """Turn off a detector that raised while detecting, and say which and why."""
+        op = self.session.object_perception
+        failed = [d for d in op.detectors if d.error is not None]
+        if not failed:
+            return
+        op.detectors = [d for d in op.detectors if d.error is None]
+        for d in failed:
+            self.sigDetectorError.emit(f"detector {d.spec_name} failed and was turned off: {d.error}")
+        if not op.detectors:
+            self.session.object_perception = None
+        self._emit_detectors()
 
     def _use_calibration(self, calib) -> None:
         s = self.session
@@ -223,6 +346,8 @@ class PerceptionWorker(_LoopThread):
         new.detector, new.robust_detector, new.robust_every = old.detector, old.robust_detector, old.robust_every
         s.calibration = calib
         s.perception = new
+        if s.object_perception is not None:  # the objects are triangulated with it too
+            s.object_perception = new_object_perception(s, calib, new.base_T_camera, s.object_perception.detectors)
         self.disparity = DisparityComputer(calib, self.disparity.params, self.disparity.match)
         self.health.reset()
         if self._health_drifted:
@@ -275,6 +400,14 @@ class PerceptionWorker(_LoopThread):
                 extra["timings_ms"] = dict(result.timings_ms, disparity=(time.perf_counter() - t0) * 1e3)
         if s.targeter.mode is TargetMode.CUPS:  # likewise the ball finder's last answer
             extra["ball_left_px"] = s.ball_finder.find(frame.left)
+        op = s.object_perception
+        if op is not None:  # marker-less objects: detect in both views, match, triangulate, track
+            t0 = time.perf_counter()
+            extra["objects"] = tuple(op.process(frame))
+            if not result.reused:
+                timings = extra.get("timings_ms", result.timings_ms)
+                extra["timings_ms"] = dict(timings, objects=(time.perf_counter() - t0) * 1e3)
+            self._check_detector_errors()
         if extra:
             result = replace(result, **extra)
         if not result.reused:
@@ -338,9 +471,11 @@ class ControlWorker(_LoopThread):
             return
         sched.ran(now)
         result = self.results.peek()
-        goal = s.targeter.update(result)
         state = self.states.peek()
         q_now = s.controller.start_pose(state)
+        if s.targeter.mode is TargetMode.OBJECT:  # the intercept and the approach start from the tool
+            s.targeter.set_tool_position(s.kinematics.fk(q_now))
+        goal = s.targeter.update(result)
         cmd = s.controller.step(goal, q_now, now)
         if cmd is not None:
             self.commands.put(cmd)

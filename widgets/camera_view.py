@@ -1,4 +1,4 @@
-"""One camera's live view: the image or its disparity map, marker overlays, fps and a banner."""
+"""One camera's live view: the image or its disparity map, marker and object overlays, fps and a banner."""
 from __future__ import annotations
 
 import math
@@ -24,6 +24,15 @@ PLACEHOLDER_SCALE = 1.6  # the placeholder's font size, times the view's
 OVERLAY_MIN_PT = 7.0  # overlay text shrinks to fit a small view, never below this
 OVERLAY_INSET_PX = 4  # overlay text keeps this far from the edges of the area it sits in
 LABEL_GAP_VIEW_PX = 2.0  # between a marker's outline and its label (image px)
+# marker-less objects: one outline colour per track id (bright on a desk, apart from the markers'
+# green and orange), the id's colour = OBJECT_COLOURS[id % len]
+OBJECT_COLOURS = ((0, 200, 255), (255, 80, 220), (255, 225, 0), (255, 110, 60),
+                  (110, 160, 255), (170, 255, 70), (255, 160, 190), (235, 235, 235))
+OBJECT_TAP_MARGIN_PX = 6.0  # a tap this near an object's box (image px) still picks it
+CIRCLE_POINTS = 40  # outline of a circle detection
+OBJECT_LABEL_PT = 8.0  # object labels: several per view, bold but smaller than a marker's id
+OBJECT_Z, OBJECT_DETAIL_Z = 9, 11  # under the markers' items (10); a label with a position over them
+M_TO_CM = 100.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +77,85 @@ def same_overlays(a: Sequence[MarkerOverlay], b: Sequence[MarkerOverlay]) -> boo
     return len(a) == len(b) and all(
         x is y or (x.marker_id == y.marker_id and x.found == y.found and x.label == y.label
                    and np.array_equal(x.corners, y.corners))
+        for x, y in zip(a, b))
+
+
+def object_colour(object_id: int) -> tuple[int, int, int]:
+    """The outline and text colour of track ``object_id`` (stable while the track lives)."""
+    return OBJECT_COLOURS[int(object_id) % len(OBJECT_COLOURS)]
+
+
+def object_label(obs, detailed: bool = True) -> str:
+    """"#3 red 0.98" plus, when ``detailed`` and known, "x 4.0 y 2.0 z 2.5 cm" and "v 1.2 cm/s"
+    (robot_base, from the triangulated position and the track's velocity); "#3 red" when not
+    ``detailed`` (a small view, where every label covers part of the desk)."""
+    if not detailed:
+        return f"#{obs.object_id} {obs.label}"
+    lines = [f"#{obs.object_id} {obs.label} {obs.score:.2f}"]
+    if obs.triangulated and obs.base_p is not None:
+        x_cm, y_cm, z_cm = (round(M_TO_CM * float(v), 1) + 0.0 for v in obs.base_p)  # + 0.0: no "-0.0"
+        lines.append(f"x {x_cm:.1f} y {y_cm:.1f} z {z_cm:.1f} cm")
+    elif not obs.triangulated:
+        lines.append("one view only")
+    if obs.velocity_base is not None:
+        speed_cm_s = M_TO_CM * math.sqrt(sum(float(v) ** 2 for v in obs.velocity_base))
+        lines.append(f"v {speed_cm_s:.1f} cm/s")
+    return "\n".join(lines)
+
+
+def _detection_outline(d) -> np.ndarray:
+    """The outline to draw for a Detection (raw image px, open polygon): its contour when it has
+    one, else its circle, else its box."""
+    if d.contour is not None and len(d.contour) >= 3:
+        return np.asarray(d.contour, dtype=float)
+    if d.radius_px is not None and d.radius_px > 0:
+        a = np.linspace(0.0, 2.0 * np.pi, CIRCLE_POINTS, endpoint=False)
+        cx, cy = d.centre_px
+        return np.stack([cx + d.radius_px * np.cos(a), cy + d.radius_px * np.sin(a)], axis=1)
+    x, y, w, h = d.box
+    return np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectOverlay:
+    """What to draw for one marker-less object in one camera image.
+
+    ``box`` is (x, y, w, h) in this camera's raw image px (what a tap hits); ``outline`` the
+    drawn shape (N, 2) px (the blob's contour, the circle or the box). ``seen`` False: a track's
+    single-view or predicted detection (drawn dashed). ``label`` may have several lines.
+    """
+
+    object_id: int
+    box: tuple[float, float, float, float]
+    outline: np.ndarray
+    label: str = ""
+    seen: bool = True
+
+    def __post_init__(self) -> None:
+        outline = np.asarray(self.outline, dtype=float).reshape(-1, 2)
+        if len(outline) < 2:
+            raise ValueError(f"ObjectOverlay.outline has {len(outline)} points; expected ≥ 2")
+        object.__setattr__(self, "outline", outline)
+        object.__setattr__(self, "box", tuple(float(v) for v in self.box))
+
+    @classmethod
+    def from_observation(cls, obs, side: str = "left", detailed: bool = True,
+                         label: Optional[str] = None) -> Optional["ObjectOverlay"]:
+        """The overlay of a ``core.detect.stereo.ObjectObservation`` in the ``side`` image; None
+        when that view did not see it. ``detailed``: position and speed lines in the label."""
+        d = obs.left if side == "left" else obs.right
+        if d is None:
+            return None
+        if label is None:
+            label = object_label(obs, detailed)
+        return cls(obs.object_id, d.box, _detection_outline(d), label, bool(obs.triangulated))
+
+
+def same_objects(a: Sequence[ObjectOverlay], b: Sequence[ObjectOverlay]) -> bool:
+    """True when two object overlay lists draw the same (ids, boxes, outlines, labels, state)."""
+    return len(a) == len(b) and all(
+        x is y or (x.object_id == y.object_id and x.seen == y.seen and x.label == y.label and x.box == y.box
+                   and x.outline.shape == y.outline.shape and np.array_equal(x.outline, y.outline))
         for x, y in zip(a, b))
 
 
@@ -158,22 +246,7 @@ class _MarkerGraphics:
         sideways to stay inside the view: a marker at the edge must not cut its label."""
         if self._label_anchor is None or not self.label_text.toPlainText():
             return
-        x, top, bottom = self._label_anchor
-        (x0, x1), (y0, y1) = self.view_box.viewRange()
-        px_w, px_h = self.view_box.viewPixelSize()  # image px per screen px
-        if not (math.isfinite(px_w) and math.isfinite(px_h)) or px_w <= 0 or px_h <= 0:
-            return
-        rect = self.label_text.textItem.boundingRect()
-        w, h = rect.width() * px_w, rect.height() * px_h  # in image px (y down: invertY)
-        if top - LABEL_GAP_VIEW_PX - h >= y0:
-            anchor_y, y = 1.0, top - LABEL_GAP_VIEW_PX
-        else:  # no room above: below the marker
-            anchor_y, y = 0.0, min(bottom + LABEL_GAP_VIEW_PX, max(y0, y1 - h))
-        x = min(max(x, x0 + 0.5 * w), x1 - 0.5 * w) if w < x1 - x0 else x0 + 0.5 * w
-        anchor = self.label_text.anchor
-        if (anchor.x(), anchor.y()) != (0.5, anchor_y):
-            self.label_text.setAnchor((0.5, anchor_y))
-        self.label_text.setPos(x, y)
+        _place_label_item(self.view_box, self.label_text, *self._label_anchor)
 
     def hide(self) -> None:
         self._label_anchor = None
@@ -190,6 +263,98 @@ class _MarkerGraphics:
         _set_visible(self.label_text, visible and bool(self.label_text.toPlainText()))
 
 
+def _place_label_item(view_box: pg.ViewBox, text: pg.TextItem, x: float, top: float, bottom: float) -> None:
+    """Put a label centred at ``x`` above ``top`` (below ``bottom`` when there is no room above,
+    image px) and slide it sideways to stay inside the view: a thing at the edge must not cut
+    its label."""
+    (x0, x1), (y0, y1) = view_box.viewRange()
+    px_w, px_h = view_box.viewPixelSize()  # image px per screen px
+    if not (math.isfinite(px_w) and math.isfinite(px_h)) or px_w <= 0 or px_h <= 0:
+        return
+    rect = text.textItem.boundingRect()
+    w, h = rect.width() * px_w, rect.height() * px_h  # in image px (y down: invertY)
+    if top - LABEL_GAP_VIEW_PX - h >= y0:
+        anchor_y, y = 1.0, top - LABEL_GAP_VIEW_PX
+    else:  # no room above: below it
+        anchor_y, y = 0.0, min(bottom + LABEL_GAP_VIEW_PX, max(y0, y1 - h))
+    x = min(max(x, x0 + 0.5 * w), x1 - 0.5 * w) if w < x1 - x0 else x0 + 0.5 * w
+    anchor = text.anchor
+    if (anchor.x(), anchor.y()) != (0.5, anchor_y):
+        text.setAnchor((0.5, anchor_y))
+    text.setPos(x, y)
+
+
+class _ObjectGraphics:
+    """The reusable graphics items of one object slot (outline and label), in its track's colour."""
+
+    def __init__(self, view_box: pg.ViewBox) -> None:
+        self.view_box = view_box
+        self.outline = pg.PlotCurveItem(antialias=True)
+        self.label_text = pg.TextItem(anchor=(0.5, 1.0), color="w", fill=pg.mkBrush(0, 0, 0, 160))
+        font = QtGui.QFont()
+        font.setPointSizeF(OBJECT_LABEL_PT)
+        font.setBold(True)
+        self.label_text.setFont(font)
+        for item in (self.outline, self.label_text):
+            item.setZValue(OBJECT_Z)  # under the markers' items
+            view_box.addItem(item, ignoreBounds=True)
+        self.object_id: Optional[int] = None
+        self.box: Optional[tuple[float, float, float, float]] = None
+        self._style: Optional[tuple[tuple[int, int, int], bool]] = None  # (colour, seen) of the pen
+        self._anchor: Optional[tuple[float, float, float]] = None  # centre x, top y, bottom y
+        self._shown: Optional[ObjectOverlay] = None  # what the items show now
+
+    def show(self, o: ObjectOverlay, force: bool = False) -> None:
+        """Draw ``o``; only what differs from what the items show (all of it with ``force``)."""
+        shown = None if force else self._shown
+        if shown is not None and shown.object_id == o.object_id and same_objects([o], [shown]):
+            return  # a still object (most of a desk): nothing to set
+        colour = object_colour(o.object_id)
+        if (colour, o.seen) != self._style:  # a moving object: only its place and text change
+            style = QtCore.Qt.PenStyle.SolidLine if o.seen else QtCore.Qt.PenStyle.DashLine
+            self.outline.setPen(pg.mkPen(colour, width=3, style=style))
+            self.label_text.setColor(colour)
+            self._style = (colour, o.seen)
+        if shown is None or shown.outline.shape != o.outline.shape or not np.array_equal(shown.outline, o.outline):
+            closed = np.vstack([o.outline, o.outline[:1]])
+            self.outline.setData(closed[:, 0], closed[:, 1])
+        if o.label != self.label_text.toPlainText():
+            self.label_text.setText(o.label)
+            # a label with a position (the followed object in a small view) goes over the others
+            self.label_text.setZValue(OBJECT_DETAIL_Z if "\n" in o.label else OBJECT_Z)
+        x, y, w, h = o.box
+        anchor = (x + 0.5 * w, y, y + h)
+        if anchor != self._anchor or shown is None or o.label != shown.label:
+            self._anchor = anchor
+            self.place_label()
+        self.object_id, self.box, self._shown = o.object_id, o.box, o
+        self.outline.setVisible(True)
+        _set_visible(self.label_text, bool(o.label))
+
+    def place_label(self) -> None:
+        if self._anchor is not None and self.label_text.toPlainText():
+            _place_label_item(self.view_box, self.label_text, *self._anchor)
+
+    def contains(self, x_px: float, y_px: float) -> bool:
+        if self.box is None or not self.outline.isVisible():
+            return False
+        x, y, w, h = self.box
+        m = OBJECT_TAP_MARGIN_PX
+        return x - m <= x_px <= x + w + m and y - m <= y_px <= y + h + m
+
+    def hide(self) -> None:
+        self._anchor = self._shown = None
+        self.outline.setVisible(False)
+        self.label_text.setVisible(False)
+        self.object_id = self.box = None
+
+    def set_visible(self, visible: bool) -> None:
+        if self.object_id is None:
+            return
+        self.outline.setVisible(visible)
+        _set_visible(self.label_text, visible and bool(self.label_text.toPlainText()))
+
+
 def _set_visible(item: pg.TextItem, visible: bool) -> None:
     """TextItem.setVisible(True) re-computes the item's transform even when it is shown: skip
     it when the visibility does not change (every frame of a moving marker)."""
@@ -198,11 +363,11 @@ def _set_visible(item: pg.TextItem, visible: bool) -> None:
 
 
 class CameraView(QtWidgets.QWidget):
-    """One camera's live image (or disparity map) with marker overlays, fps and a banner.
+    """One camera's live image (or disparity map) with marker and object overlays, fps and a banner.
 
     Coordinates everywhere are the raw image's pixels in the OpenCV convention (x right,
     y down, pixel centres at integers). Mouse pan/zoom and the context menu are off so taps
-    are only taps. Marker overlays are shown in image mode only: their corners are raw-image
+    are only taps. Marker and object overlays are shown in image mode only: their corners are raw-image
     pixels while the disparity map lives in the rectified image. In disparity mode the colour
     bar can carry depth labels (``set_depth_legend``) and a tapped pixel a depth probe
     (``set_probe``).
@@ -210,6 +375,8 @@ class CameraView(QtWidgets.QWidget):
     Signals (all emitted from the GUI thread):
         sigClicked(float x_px, float y_px): the user clicked/tapped the image at that pixel
             (in disparity mode: a pixel of the rectified left view, where the window measures depth).
+        sigObjectClicked(int object_id): the click was on (or within a few px of) a drawn
+            object's box (emitted after sigClicked, before sigMarkerClicked).
         sigMarkerClicked(int marker_id): the click was inside a drawn marker outline
             (emitted after sigClicked).
         sigDisplayModeChanged(str mode): the user switched the toggle; "image" or "disparity".
@@ -217,6 +384,7 @@ class CameraView(QtWidgets.QWidget):
 
     sigClicked = QtCore.Signal(float, float)
     sigMarkerClicked = QtCore.Signal(int)
+    sigObjectClicked = QtCore.Signal(int)
     sigDisplayModeChanged = QtCore.Signal(str)
 
     # True: show_image/show_disparity/set_markers redraw even what is already shown (the
@@ -238,6 +406,8 @@ class CameraView(QtWidgets.QWidget):
         self._frames_drawn = 0
         self._max_disparity = 64.0
         self._markers: list[_MarkerGraphics] = []
+        self._objects: list[_ObjectGraphics] = []
+        self._shown_objects: list[ObjectOverlay] = []
 
         self._title = QtWidgets.QLabel(title)
         font = self._title.font()
@@ -471,6 +641,38 @@ class CameraView(QtWidgets.QWidget):
         for slot in self._markers[len(markers):]:
             slot.hide()
 
+    def set_objects(self, objects: Sequence[ObjectOverlay]) -> None:
+        """Draw these marker-less objects (replacing the previous ones); the same again is
+        skipped. Graphics items are reused between frames (only hidden when unused)."""
+        if same_objects(objects, self._shown_objects) and not self.redraw_unchanged:
+            return
+        self._shown_objects = list(objects)
+        while len(self._objects) < len(objects):
+            self._objects.append(_ObjectGraphics(self._view_box))
+        for slot, overlay in zip(self._objects, objects):
+            slot.show(overlay, force=self.redraw_unchanged)
+            slot.set_visible(self._mode == "image")
+        for slot in self._objects[len(objects):]:
+            if slot.object_id is not None:
+                slot.hide()
+
+    @property
+    def shown_objects(self) -> list[ObjectOverlay]:
+        """The object overlays last set (drawn in image mode)."""
+        return list(self._shown_objects)
+
+    def object_labels(self) -> dict[int, str]:
+        """The text of each drawn object's label, by object id (for tests)."""
+        return {slot.object_id: slot.label_text.toPlainText() for slot in self._objects
+                if slot.object_id is not None and slot.outline.isVisible()}
+
+    def object_at(self, x_px: float, y_px: float) -> Optional[int]:
+        """The id of the drawn object whose box (plus a small margin) holds (x, y) px, else None;
+        the smallest box wins where boxes overlap."""
+        hits = [(slot.box[2] * slot.box[3], slot.object_id) for slot in self._objects
+                if slot.object_id is not None and slot.contains(x_px, y_px)]
+        return min(hits)[1] if hits else None
+
     def set_fps(self, fps: float) -> None:
         """Show the frame rate in the view's bottom-left corner (NaN or ≤ 0: "— fps")."""
         text = f"{fps:.1f} fps" if math.isfinite(fps) and fps > 0 else "— fps"
@@ -571,7 +773,7 @@ class CameraView(QtWidgets.QWidget):
         self._image_item.setVisible(not disparity)
         self._disparity_item.setVisible(disparity)
         self._colour_bar.setVisible(disparity)
-        for slot in self._markers:
+        for slot in (*self._markers, *self._objects):
             slot.set_visible(not disparity)
         self._update_probe_visibility()
         if disparity and self._last_disparity is not None:
@@ -597,6 +799,9 @@ class CameraView(QtWidgets.QWidget):
         pos = self._view_box.mapSceneToView(event.scenePos())
         x_px, y_px = float(pos.x()), float(pos.y())
         self.sigClicked.emit(x_px, y_px)
+        object_id = self.object_at(x_px, y_px) if self._mode == "image" else None
+        if object_id is not None:
+            self.sigObjectClicked.emit(object_id)
         marker_id = self.marker_at(x_px, y_px)
         if marker_id is not None:
             self.sigMarkerClicked.emit(marker_id)
@@ -610,6 +815,9 @@ class CameraView(QtWidgets.QWidget):
         """The image moved or was rescaled on screen: marker labels and the probe follow."""
         for slot in self._markers:
             if slot.marker_id is not None:
+                slot.place_label()
+        for slot in self._objects:
+            if slot.object_id is not None:
                 slot.place_label()
         if not self._probe_label.isHidden():
             self._place_probe()

@@ -1,4 +1,5 @@
-"""How the target is chosen: a mode switch and a page per mode (manual, follow, Lissajous, cups)."""
+"""How the target is chosen: a mode switch and a page per mode (manual, follow, Lissajous, cups,
+a marker-less object)."""
 from __future__ import annotations
 
 import math
@@ -28,8 +29,9 @@ MODE_LABELS = (
     (TargetMode.FOLLOW, "Follow marker"),
     (TargetMode.LISSAJOUS, "Lissajous"),
     (TargetMode.CUPS, "Cups game"),
+    (TargetMode.OBJECT, "Object"),
 )
-WIDE_MODE_BAR_PX = 480  # narrower than this, the four mode buttons wrap to 2 x 2
+MODE_BAR_SPACING_PX = 2
 
 # Lissajous spin boxes: (row label, lo, hi, decimals, step) in what the user sees.
 LISSAJOUS_ROWS = (
@@ -91,7 +93,7 @@ class _AxisControl:
 
 
 class TargetPanel(QtWidgets.QWidget):
-    """Target mode switch with pages for manual, follow-marker, Lissajous and cups modes.
+    """Target mode switch with pages for manual, follow-marker, Lissajous, cups and object modes.
 
     Positions are metres in robot_base in the API; the controls show centimetres, Hz and
     degrees. Long pages scroll so the panel fits an 800×480 screen. The Lissajous "Run"
@@ -99,13 +101,16 @@ class TargetPanel(QtWidgets.QWidget):
 
     Signals (GUI thread):
         sigModeChanged(str): the user picked a mode; a ``TargetMode`` value
-            ("manual", "follow", "lissajous", "cups").
+            ("manual", "follow", "lissajous", "cups", "object").
         sigManualTargetChanged(object): (x, y, z) tuple in metres, after a slider move, a
             committed spin-box edit or :meth:`set_manual_target`.
         sigFollowIdChanged(int): the marker id to follow changed (user pick, ``set_follow_id``
             or the first id appearing when none was selected).
         sigLissajousChanged(object): a valid :class:`LissajousParams` after an edit.
         sigLissajousRunning(bool): the Run button was switched on (True) or off (False).
+        sigFollowObjectChanged(str label, object object_id): the marker-less object to follow
+            (Object mode): a track id (int) with its label, or None to follow any object of
+            that label; a user pick in the list or ``set_follow_object``.
     """
 
     sigModeChanged = QtCore.Signal(str)
@@ -113,11 +118,14 @@ class TargetPanel(QtWidgets.QWidget):
     sigFollowIdChanged = QtCore.Signal(int)
     sigLissajousChanged = QtCore.Signal(object)
     sigLissajousRunning = QtCore.Signal(bool)
+    sigFollowObjectChanged = QtCore.Signal(str, object)
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self._mode = TargetMode.MANUAL
         self._marker_ids: tuple[int, ...] = ()
+        self._objects_seen: tuple[tuple[str, int], ...] = ()  # (label, track id), sorted
+        self._follow_object: Optional[tuple[str, Optional[int]]] = None  # (label, id) chosen
         self._mode_columns = 0
 
         # --- mode switch (segmented, exclusive)
@@ -125,7 +133,7 @@ class TargetPanel(QtWidgets.QWidget):
         self._mode_group = QtWidgets.QButtonGroup(self)
         self._mode_group.setExclusive(True)
         self._mode_bar = QtWidgets.QGridLayout()
-        self._mode_bar.setSpacing(2)
+        self._mode_bar.setSpacing(MODE_BAR_SPACING_PX)
         for index, (mode, text) in enumerate(MODE_LABELS):
             button = touch_button(text, checkable=True)
             button.setSizePolicy(QtWidgets.QSizePolicy.Policy.Expanding,
@@ -142,6 +150,7 @@ class TargetPanel(QtWidgets.QWidget):
         self.stack.addWidget(touch_scroll_area(self._build_follow_page()))
         self.stack.addWidget(touch_scroll_area(self._build_lissajous_page()))
         self.stack.addWidget(touch_scroll_area(self._build_cups_page()))
+        self.stack.addWidget(touch_scroll_area(self._build_object_page()))
 
         # --- reach status, visible on every page
         self.reach_label = QtWidgets.QLabel("")
@@ -251,6 +260,33 @@ class TargetPanel(QtWidgets.QWidget):
         layout.addStretch(1)
         return page
 
+    def _build_object_page(self) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        layout.setContentsMargins(2, 2, 2, 2)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(QtWidgets.QLabel("Object"))
+        self.object_combo = touch_combo(QtWidgets.QComboBox())
+        self.object_combo.setObjectName("object_combo")
+        self.object_combo.setMinimumWidth(120)
+        self.object_combo.setPlaceholderText("no object seen")
+        self.object_combo.currentIndexChanged.connect(self._on_object_index)
+        row.addWidget(self.object_combo, 1)
+        layout.addLayout(row)
+        self.object_hint = QtWidgets.QLabel("")
+        self.object_hint.setWordWrap(True)
+        self.object_hint.setStyleSheet(f"QLabel {{ color: {WARN_COLOUR}; font-weight: bold; }}")
+        self.object_hint.hide()
+        layout.addWidget(self.object_hint)
+        hint = QtWidgets.QLabel("The arm follows this object; when it is not seen the arm holds "
+                                "its position. Tap an object's box in a camera view to pick it. "
+                                "Detectors and colours: the Objects tab.")
+        hint.setWordWrap(True)
+        hint.setEnabled(False)
+        layout.addWidget(hint)
+        layout.addStretch(1)
+        return page
+
     def set_cups_hint(self, text: str) -> None:
         """What the cups game needs here (e.g. a scene with a ball); "" hides it."""
         self.cups_hint.setText(text)
@@ -285,19 +321,33 @@ class TargetPanel(QtWidgets.QWidget):
             self._mode_bar.removeWidget(button)
             self._mode_bar.addWidget(button, index // columns, index % columns)
 
+    def _widest_mode_button(self) -> int:
+        return max(b.minimumSizeHint().width() for b in self._mode_group.buttons())
+
     def minimumSizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
-        """As narrow as the pages allow: the mode bar wraps to 2 x 2 when squeezed."""
+        """As narrow as the pages allow: the mode bar wraps to two columns when squeezed."""
         hint = super().minimumSizeHint()
         margins = self.layout().contentsMargins()
-        widest_button = max(b.minimumSizeHint().width() for b in self._mode_group.buttons())
-        two_columns = 2 * widest_button + self._mode_bar.horizontalSpacing()
+        two_columns = 2 * self._widest_mode_button() + MODE_BAR_SPACING_PX
         pages = max(self.stack.minimumSizeHint().width(), self.reach_label.minimumWidth())
         hint.setWidth(max(two_columns, pages) + margins.left() + margins.right())
         return hint
 
+    def mode_bar_columns(self, width: int) -> int:
+        """How many mode buttons fit side by side in a panel ``width`` px wide: all in one row
+        when there is room, else as many as fit (at least two), in as few rows as that allows."""
+        margins = self.layout().contentsMargins()
+        room = width - margins.left() - margins.right()
+        fit = max(2, (room + MODE_BAR_SPACING_PX) // (self._widest_mode_button() + MODE_BAR_SPACING_PX))
+        n = len(MODE_LABELS)
+        if fit >= n:
+            return n
+        rows = -(-n // fit)
+        return -(-n // rows)  # the same rows, filled evenly (5 buttons: 3 + 2, not 4 + 1)
+
     def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
-        """Four mode buttons in a row when there is room, else two rows of two."""
-        self._layout_mode_bar(4 if event.size().width() >= WIDE_MODE_BAR_PX else 2)
+        """All mode buttons in a row when there is room, else wrapped into even rows."""
+        self._layout_mode_bar(self.mode_bar_columns(event.size().width()))
         super().resizeEvent(event)
 
     # ----------------------------------------------------------------------------- manual
@@ -372,6 +422,65 @@ class TargetPanel(QtWidgets.QWidget):
         marker_id = self.follow_id
         if marker_id is not None:
             self.sigFollowIdChanged.emit(marker_id)
+
+    # ----------------------------------------------------------------------------- object
+    @property
+    def follow_object(self) -> Optional[tuple[str, Optional[int]]]:
+        """The chosen object as (label, track id or None for "any of that label"), or None."""
+        data = self.object_combo.currentData()
+        return None if data is None else (str(data[0]), None if data[1] is None else int(data[1]))
+
+    def set_objects_seen(self, objects: Sequence[tuple[str, int]]) -> None:
+        """Offer these (label, track id) objects, and each label as "any <label>"; the chosen
+        entry stays chosen (shown "not seen" when absent), the first one is chosen when none was
+        (emitting, as the marker list does). Called with every frame: it leaves an open popup
+        alone unless the objects seen changed."""
+        seen = tuple(sorted({(str(label), int(i)) for label, i in objects}, key=lambda o: (o[1], o[0])))
+        if seen == self._objects_seen:
+            return
+        self._objects_seen = seen
+        self._fill_object_combo(self._follow_object)
+
+    def set_follow_object(self, label: str, object_id: Optional[int]) -> None:
+        """Choose an object to follow (e.g. tapped in a camera view); emits if it changed."""
+        self._fill_object_combo((str(label), None if object_id is None else int(object_id)))
+
+    def set_object_hint(self, text: str) -> None:
+        """What Object mode needs here (e.g. a detector turned on); "" hides it."""
+        self.object_hint.setText(text)
+        self.object_hint.setVisible(bool(text))
+
+    @staticmethod
+    def object_text(label: str, object_id: Optional[int]) -> str:
+        return f"any {label}" if object_id is None else f"{label} #{object_id}"
+
+    def _fill_object_combo(self, selected: Optional[tuple[str, Optional[int]]]) -> None:
+        """Rebuild the list, choose ``selected`` (else the first entry); emit if that changed."""
+        before = self.follow_object
+        entries: list[tuple[str, Optional[int]]] = list(self._objects_seen)
+        entries += [(label, None) for label in sorted({label for label, _ in self._objects_seen})]
+        if selected is not None and selected not in entries:
+            entries.append(selected)
+        if selected is None and entries:
+            selected = entries[0]
+        blocked = self.object_combo.blockSignals(True)
+        self.object_combo.clear()
+        for label, object_id in entries:
+            available = object_id is None or (label, object_id) in self._objects_seen
+            text = self.object_text(label, object_id)
+            self.object_combo.addItem(text if available else f"{text} (not seen)", (label, object_id))
+        self.object_combo.setCurrentIndex(entries.index(selected) if selected is not None else -1)
+        self.object_combo.blockSignals(blocked)
+        self._follow_object = selected
+        after = self.follow_object
+        if after is not None and after != before:
+            self.sigFollowObjectChanged.emit(after[0], after[1])
+
+    def _on_object_index(self, _index: int) -> None:
+        chosen = self.follow_object
+        if chosen is not None:
+            self._follow_object = chosen
+            self.sigFollowObjectChanged.emit(chosen[0], chosen[1])
 
     # ----------------------------------------------------------------------------- Lissajous
     def lissajous(self) -> LissajousParams:
