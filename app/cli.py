@@ -107,6 +107,8 @@ SUBCOMMANDS = {
     "calibrate-hand-eye": "app.cli_handeye",
     "serve": "app.cli_serve",
     "detect": "app.cli_detect",
+    "train-detector": "app.cli_train",
+    "eval-detector": "app.cli_train",
 }
 
 

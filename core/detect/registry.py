@@ -18,6 +18,8 @@ _NAMED: dict[str, Factory] = {
     "aruco": "core.detect.markers:make_aruco",
     "hsv": "core.detect.colour:make_hsv",
     "circles": "core.detect.circles:make_circles",
+    # the shipped model (resources/models/desk_objects.onnx); options are OnnxYoloDetector's
+    "desk": "core.detect.learned.shipped:make_desk_detector",
 }
 # prefix -> factory(argument, **options), e.g. "onnx" -> OnnxYoloDetector(path, **options)
 _PREFIXED: dict[str, Factory] = {
@@ -33,7 +35,7 @@ def detector_names() -> tuple[str, ...]:
 
 _names = detector_names
 
-DETECTORS = detector_names()  # the built-in names: "aruco", "hsv", "circles", "onnx:PATH"
+DETECTORS = detector_names()  # the built-in names: "aruco", "hsv", "circles", "desk", "onnx:PATH"
 
 
 def register_detector(name: str, factory: Factory, prefix: bool = False) -> None:
@@ -89,8 +91,8 @@ def parse_detector_list(text: str) -> list[str]:
 
 
 def make_detector(name: str, **options) -> Detector:
-    """A detector by name: "aruco", "hsv", "circles" (options are its settings' fields) or
-    "onnx:PATH" (options go to the ONNX detector). ValueError for an unknown name or option,
+    """A detector by name: "aruco", "hsv", "circles" (options are its settings' fields), "desk" (the
+    shipped model) or "onnx:PATH" (options go to the ONNX detector for both). ValueError for an unknown name or option,
     SettingsError (a ValueError) for a value out of range."""
     name = _check_name(name)
     prefix, sep, arg = name.partition(":")

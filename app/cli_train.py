@@ -1,0 +1,262 @@
+"""``deskarm train-detector`` and ``deskarm eval-detector``: the desk detector's training and its score.
+
+    deskarm train-detector [--images N] [--epochs E] [--minutes M] [--out PATH] [--data DIR]
+                           [--test-images N] [--input WxH] [--seed S] [--threads T] [--json]
+    deskarm eval-detector [MODEL] [--images N] [--seed S] [--score-threshold X] [--backend B] [--json]
+
+``train-detector`` renders N labelled images of random simulated-desk scenes (cached in DIR,
+default the user cache folder), trains the small detector of ``core.detect.learned.model`` on
+them for E epochs or M minutes, whichever ends first, exports it to ONNX (default
+``resources/models/desk_objects.onnx``) and scores the exported file, run by OpenCV's DNN module,
+on held-out renders it never saw: per-class AP and mAP@0.5. It needs the optional ``train`` extra
+(torch, CPU). ``eval-detector`` scores any YOLO-layout ONNX model (default: the shipped one) on
+fresh held-out renders, without torch. Both print a table, or one JSON object with ``--json``.
+Exit codes: 0 done, 2 bad option or missing dependency/model.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+TRAIN = "train-detector"
+EVAL = "eval-detector"
+COMMANDS = (TRAIN, EVAL)
+EVAL_SCORE_THRESHOLD = 0.05  # detections kept for the precision-recall curve (AP needs the low ones)
+REPORT_SCORE_THRESHOLD = 0.25  # where precision and recall are read (OnnxYoloDetector's default)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse's own default)
+        self.exit(2, f"{self.prog}: {message}\n")
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT, e.g. 320x240") from None
+    if w % 16 or h % 16 or not (64 <= w <= 1280 and 64 <= h <= 1280):
+        raise argparse.ArgumentTypeError(f"{text!r}: width and height must be multiples of 16 in 64…1280")
+    return w, h
+
+
+def _positive(kind):
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if value <= 0:
+            raise argparse.ArgumentTypeError(f"{text!r} must be greater than 0")
+        return value
+    return parse
+
+
+def add_parser(subparsers) -> None:
+    """Add both subcommands to an argparse ``subparsers`` (``parser.add_subparsers()``)."""
+    for name in COMMANDS:
+        _fill(subparsers.add_parser(name, help=_HELP[name], description=_HELP[name]), name)
+
+
+_HELP = {
+    TRAIN: "Render labelled desk images, train the small desk detector (needs torch), export and score it.",
+    EVAL: "Score a YOLO ONNX model (default: the shipped desk model) on fresh held-out renders of the desk.",
+}
+
+
+def _fill(p: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    from core.sim.dataset import TEST_SEED_BASE
+
+    if command == TRAIN:
+        p.add_argument("--images", type=_positive(int), default=6000, metavar="N",
+                       help="training images (both views of N/2 random scenes; default 6000)")
+        p.add_argument("--epochs", type=_positive(int), default=40, metavar="E",
+                       help="passes over them at most (default 40)")
+        p.add_argument("--minutes", type=_positive(float), default=8.0, metavar="M",
+                       help="wall-time budget of the optimisation (default 8)")
+        p.add_argument("--out", default=None, metavar="PATH",
+                       help="where to write the .onnx (default: resources/models/desk_objects.onnx)")
+        p.add_argument("--data", default=None, metavar="DIR",
+                       help="cache folder of the rendered images (default: <user cache>/desk-dataset)")
+        p.add_argument("--test-images", type=_positive(int), default=200, metavar="N",
+                       help="held-out renders the exported model is scored on (default 200)")
+        p.add_argument("--input", type=_size, default=(320, 240), metavar="WxH",
+                       help="network input, multiples of 16 (default 320x240: half the 640x480 camera)")
+        p.add_argument("--seed", type=int, default=0, help="training seed (weights, order, flips; default 0)")
+        p.add_argument("--threads", type=int, default=0, metavar="T",
+                       help="torch CPU threads (default: torch's; 1 is faster on a busy, shared CPU)")
+    else:
+        p.add_argument("model", nargs="?", default=None, metavar="MODEL",
+                       help="a YOLO-layout .onnx (default: the shipped resources/models/desk_objects.onnx)")
+        p.add_argument("--images", type=_positive(int), default=200, metavar="N",
+                       help="renders to score on (default 200)")
+        p.add_argument("--seed", type=int, default=TEST_SEED_BASE, metavar="S",
+                       help=f"first held-out scene seed, ≥ {TEST_SEED_BASE} (default {TEST_SEED_BASE})")
+        p.add_argument("--score-threshold", type=float, default=EVAL_SCORE_THRESHOLD, metavar="X",
+                       help=f"lowest detection score kept for the AP curve (default {EVAL_SCORE_THRESHOLD})")
+        p.add_argument("--backend", choices=("cv2", "onnxruntime", "auto"), default="cv2",
+                       help="what runs the model (default cv2: OpenCV's DNN module)")
+    p.add_argument("--json", action="store_true", help="print one JSON object only")
+    return p
+
+
+def build_parser(command: str) -> argparse.ArgumentParser:
+    return _fill(_Parser(prog=f"deskarm {command}", description=_HELP[command]), command)
+
+
+# ---------------------------------------------------------------------------------------------- eval
+def _score(model_path: Path, n_images: int, first_seed: int, score_threshold: float, backend: str) -> dict:
+    """Score a model file on held-out renders: a JSON-ready dict (raises ValueError/OSError)."""
+    from core.detect.onnx_yolo import OnnxYoloDetector
+    from core.sim.dataset import CLASSES, score_detector
+
+    detector = OnnxYoloDetector(model_path, backend=backend, score_threshold=score_threshold)
+    classes = [name for name in detector.names if name in CLASSES]
+    if not classes:
+        raise ValueError(f"{model_path}: none of its classes {detector.names or '(unnamed)'} is a desk class "
+                         f"({', '.join(CLASSES)}); name them in the model's 'names' metadata")
+    scores, timing = score_detector(detector, n_images, first_seed, classes, 0.5, REPORT_SCORE_THRESHOLD)
+    out = {"model": str(model_path), "backend": detector.backend, "input": list(detector.input_wh),
+           "images": scores.n_images, "first_seed": first_seed, "detect_score_threshold": score_threshold}
+    out.update(scores.to_dict())
+    out["timing"] = {k: round(v, 2) for k, v in timing.items()}
+    out["_table"] = scores.table()
+    return out
+
+
+def _print_score(result: dict, as_json: bool) -> None:
+    table = result.pop("_table")
+    if as_json:
+        print(json.dumps(result))
+        return
+    print(f"{result['model']}: {result['images']} held-out renders (seeds from {result['first_seed']}), "
+          f"backend {result['backend']}, input {result['input'][0]}x{result['input'][1]}")
+    print(table)
+    t = result["timing"]
+    print(f"detect {t['detect_ms_per_image']:.1f} ms per 640x480 image (render {t['render_ms_per_image']:.1f} ms)")
+
+
+def _run_eval(args) -> int:
+    from core.sim.dataset import TEST_SEED_BASE
+
+    prog = f"deskarm {EVAL}"
+    if args.model is None:
+        from core.detect.learned.shipped import shipped_model_path
+
+        model = shipped_model_path()
+    else:
+        model = Path(args.model)
+    if args.seed < TEST_SEED_BASE:
+        print(f"{prog}: --seed {args.seed}: held-out scenes start at {TEST_SEED_BASE} (lower seeds are training "
+              f"scenes)", file=sys.stderr)
+        return 2
+    if not 0.0 <= args.score_threshold <= 1.0:
+        print(f"{prog}: --score-threshold {args.score_threshold} must be in 0…1", file=sys.stderr)
+        return 2
+    if not model.is_file():
+        print(f"{prog}: model not found: {model}", file=sys.stderr)
+        return 2
+    try:
+        result = _score(model, args.images, args.seed, args.score_threshold, args.backend)
+    except (ValueError, ImportError) as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 2
+    _print_score(result, args.json)
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------- train
+def _default_out() -> Path:
+    from core.detect.learned.shipped import shipped_model_path
+
+    return shipped_model_path()
+
+
+def _run_train(args) -> int:
+    prog = f"deskarm {TRAIN}"
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        print(f"{prog}: torch is not installed — pip install -e '.[train]' (torch 2.13.0, CPU wheel)",
+              file=sys.stderr)
+        return 2
+    try:
+        import onnx  # noqa: F401
+    except ImportError:
+        print(f"{prog}: the onnx package is not installed — pip install -e '.[train]'", file=sys.stderr)
+        return 2
+    from core.detect.learned.model import TrainConfig, config_dict, export_onnx, train_detector
+    from core.paths import user_dir
+    from core.sim.dataset import CLASSES, DATASET_VERSION, TEST_SEED_BASE, training_arrays
+
+    log_stream = sys.stderr if args.json else sys.stdout
+
+    def say(text: str) -> None:
+        print(text, file=log_stream, flush=True)
+
+    out = Path(args.out) if args.out else _default_out()
+    data = Path(args.data) if args.data else user_dir("cache") / "desk-dataset"
+    try:
+        config = TrainConfig(epochs=args.epochs, max_seconds=60.0 * args.minutes, seed=args.seed, threads=args.threads)
+    except ValueError as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 2
+    t0 = time.perf_counter()
+    say(f"rendering/reading {args.images} training images ({args.input[0]}x{args.input[1]}) in {data}")
+    try:
+        images, boxes, labels, difficult = training_arrays(args.images, args.input, data, CLASSES, progress=say)
+    except OSError as exc:
+        print(f"{prog}: {data}: cannot write the rendered images: {exc}", file=sys.stderr)
+        return 2
+    data_s = time.perf_counter() - t0
+    counts = {name: int(sum(int(((lab == i) & ~d).sum()) for lab, d in zip(labels, difficult)))
+              for i, name in enumerate(CLASSES)}
+    say(f"{len(images)} images, boxes per class {counts}, ready in {data_s:.0f} s; training "
+        f"(≤ {config.epochs} epochs, ≤ {args.minutes:g} min)")
+    result = train_detector(images, boxes, labels, difficult, len(CLASSES), config, progress=say)
+    training = {**result.summary(), "images": len(images), "scene_seeds": [0, -(-len(images) // 2) - 1],
+                "boxes": counts, "dataset_version": DATASET_VERSION, "config": config_dict(config),
+                "command": "deskarm train-detector " + " ".join(args.argv)}
+    meta = {"deskarm_training": training}
+    try:
+        export_onnx(result.net, out, CLASSES, args.input, metadata=meta)
+        score = _score(out, args.test_images, TEST_SEED_BASE, EVAL_SCORE_THRESHOLD, "cv2")
+        meta["deskarm_eval"] = {"images": score["images"], "first_seed": TEST_SEED_BASE, "map50": score["map"],
+                                "ap50": {k: v["ap"] for k, v in score["classes"].items()}}
+        export_onnx(result.net, out, CLASSES, args.input, metadata=meta)  # the same weights, with their score
+    except OSError as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return 2
+    score["training"] = training
+    score["data_seconds"] = round(data_s, 1)
+    score["model_bytes"] = out.stat().st_size
+    if not args.json:
+        say(f"trained in {result.seconds:.0f} s ({result.epochs_done:.1f} epochs, {result.steps} steps); wrote "
+            f"{out} ({score['model_bytes'] / 1e6:.2f} MB)")
+    _print_score(score, args.json)
+    return 0
+
+
+def run(command: str, argv: list[str]) -> int:
+    """Entry point of ``deskarm train-detector`` / ``deskarm eval-detector`` (``command`` says which)."""
+    if command not in COMMANDS:
+        raise ValueError(f"unknown command {command!r}; valid: {', '.join(COMMANDS)}")
+    args = build_parser(command).parse_args(argv)
+    args.argv = list(argv)
+    return _run_train(args) if command == TRAIN else _run_eval(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m app.cli_train train-detector …`` (what ``deskarm`` dispatches to)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS:
+        print(f"usage: {sys.argv[0] if argv is None else 'cli_train'} {{{','.join(COMMANDS)}}} …", file=sys.stderr)
+        return 2
+    return run(argv[0], argv[1:])
+
+
+if __name__ == "__main__":
+    sys.exit(main())
