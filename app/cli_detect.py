@@ -30,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--detector", default="aruco,hsv", metavar="NAME[,NAME…]",
                    help="detectors to run: aruco, hsv, circles, onnx:PATH (default: aruco,hsv)")
     p.add_argument("--colour", "--color", action="append", default=[], metavar="NAME=HLO,SLO,VLO,HHI,SHI,VHI",
-                   help="hsv: a colour to look for (repeatable; replaces the defaults red, yellow, green, blue)")
+                   help="hsv: a colour to look for (repeatable; replaces the defaults red, orange, yellow, green, blue, purple, pink)")
     p.add_argument("--dictionary", default=None, metavar="NAME",
                    help="aruco: marker dictionary (default: DICT_6X6_250, the simulated desk's)")
     p.add_argument("--json", action="store_true", help="print one JSON object only")

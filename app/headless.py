@@ -265,7 +265,7 @@ class HeadlessRunner:
         self.metrics.objects = session.object_perception is not None
         self.metrics.following = session.targeter.mode is TargetMode.OBJECT
         self._object_labels = detector_labels(session.object_perception)
-        self._object_ids: dict[int, int] = {}  # truth id -> object_id of its last matched observation
+        self._object_ids: dict[tuple, int] = {}  # (truth id, label) -> object_id of its last matched observation
         self._object_truth_prev: dict[int, tuple[float, np.ndarray]] = {}  # truth id -> (t, position)
         # following an object: the truth's motion (truth id -> (t, position, velocity)), the truth
         # object the followed observation is, the tool's recent positions and the approach scored
@@ -441,11 +441,20 @@ class HeadlessRunner:
     def _score_objects(self, frame, observations) -> None:
         """Score the marker-less objects of one frame against its ground truth (simulated desk).
 
-        Targets: the truth things (labels "<colour> <kind>") visible in both views whose label the
-        detectors can give (``label_matches``). Each is matched to the nearest triangulated
-        observation of its label (one observation per truth, greedy nearest first): its distance
-        is the kind's 3D error; within OBJECT_SEEN_M it counts as seen, and then its id (switches)
-        and its velocity (against the truth's, from consecutive truth positions) are scored too.
+        Targets: the truth things (labels "<colour> <kind>") visible in both views that one of
+        the detectors can name (``detector_labels`` / ``label_matches``: a colour, a class = a
+        kind, the whole label, or the generic "circle" for a ball, a disc or a cup).
+
+        Each target takes one triangulated observation, each observation names at most one
+        target: among the observations that can name it and lie within OBJECT_SEEN_M, the most
+        specific label first (``label_specificity``: a colour or class over "circle", so with
+        hsv and circles together a ball is scored on its colour track, whichever is nearer),
+        then the nearest. A target with none is not seen; farther observations are not error
+        samples (they are other objects, or this one misplaced beyond recognition — the seen
+        ratio shows that). A seen target gives its kind's 3D error, its velocity error (against
+        the truth's, from consecutive truth positions) and its id: an id switch is a change of
+        the object_id of the observation with the *same label* that scored this target last (two
+        detectors' tracks of one object are two ids, not switches between them).
         """
         m, truth = self.metrics, frame.truth
         if truth is None:
@@ -473,12 +482,16 @@ class HeadlessRunner:
         candidates = []
         for ti, (obj, _, p, _) in enumerate(targets):
             for oi, o in enumerate(measured):
-                if label_matches(o.label, obj.label):
-                    candidates.append((float(np.linalg.norm(np.asarray(o.base_p) - p)), ti, oi))
+                specificity = label_specificity(o.label, obj.label)
+                if specificity == 0:
+                    continue
+                dist = float(np.linalg.norm(np.asarray(o.base_p) - p))
+                if dist <= OBJECT_SEEN_M:
+                    candidates.append((-specificity, dist, ti, oi))
         candidates.sort()
         matched: dict[int, tuple[float, int]] = {}
         used = set()
-        for dist, ti, oi in candidates:
+        for _, dist, ti, oi in candidates:
             if ti in matched or oi in used:
                 continue
             matched[ti] = (dist, oi)
@@ -488,17 +501,16 @@ class HeadlessRunner:
             if ti not in matched:
                 continue
             dist, oi = matched[ti]
+            m.object_seen_pairs += 1
             m.object_error(kind).append(dist * 1e3)
             if velocity is not None and float(np.linalg.norm(velocity)) >= FAST_OBJECT_M_S:
                 m.object_error_fast_mm.append(dist * 1e3)
-            if dist > OBJECT_SEEN_M:
-                continue
-            m.object_seen_pairs += 1
             o = measured[oi]
-            last_id = self._object_ids.get(obj.marker_id)
+            key = (obj.marker_id, o.label)
+            last_id = self._object_ids.get(key)
             if last_id is not None and last_id != o.object_id:
                 m.object_id_switches += 1
-            self._object_ids[obj.marker_id] = o.object_id
+            self._object_ids[key] = o.object_id
             if velocity is not None and o.velocity_base is not None:
                 m.object_velocity_error_mm_s.append(
                     float(np.linalg.norm(np.asarray(o.velocity_base) - velocity)) * 1e3)
@@ -642,26 +654,47 @@ class HeadlessRunner:
 
 
 def detector_labels(perception) -> Optional[tuple[str, ...]]:
-    """The labels an object perception's detectors can give (colour names), None when one of them
-    names its detections freely (a learned model's classes: every truth object is a target then)."""
+    """The labels an object perception's detectors can give: colour names (hsv), "circle"
+    (circles); markers (aruco) name no thing. None when one of them names its detections freely
+    (a learned model's classes: every truth object is a target then)."""
     if perception is None:
         return None
     labels: list[str] = []
     for detector in perception.detectors:
+        name = getattr(detector, "name", "")
         colours = getattr(detector.params, "colours", None)
-        if colours is None:
+        if colours is not None:
+            labels += [c.name for c in colours]
+        elif name == "circles":
+            labels.append(CIRCLE_LABEL)
+        elif name != "aruco":
             return None
-        labels += [c.name for c in colours]
     return tuple(labels)
+
+
+CIRCLE_LABEL = "circle"  # what core.detect.circles labels its detections
+ROUND_KINDS = ("ball", "disc", "cup")  # the truth kinds a "circle" detection can be
+
+
+def label_specificity(label: str, truth_label: str) -> int:
+    """How well a detection labelled ``label`` names the truth object ``truth_label`` ("red ball"):
+    2 for the whole label, its colour ("red") or its kind ("ball", a model's class); 1 for the
+    generic "circle" when the kind is round (ball, disc, cup); 0 when it does not name it."""
+    label, words = str(label).strip().lower(), str(truth_label).strip().lower().split()
+    if not label or not words:
+        return 0
+    if label in (" ".join(words), " ".join(words[:-1]), words[-1]):
+        return 2
+    if label == CIRCLE_LABEL and words[-1] in ROUND_KINDS:
+        return 1
+    return 0
 
 
 def label_matches(label: str, truth_label: str) -> bool:
     """Does a detection labelled ``label`` name the truth object ``truth_label`` ("red ball")?
-    Yes for the whole label, its colour ("red") or its kind ("ball")."""
-    label, words = str(label).strip().lower(), str(truth_label).strip().lower().split()
-    if not label or not words:
-        return False
-    return label in (" ".join(words), " ".join(words[:-1]), words[-1])
+    Yes for the whole label, its colour ("red"), its kind ("ball"), or "circle" for a round kind
+    (ball, disc, cup); see ``label_specificity``."""
+    return label_specificity(label, truth_label) > 0
 
 
 def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None, record=None) -> int:

@@ -76,11 +76,20 @@ def parse_hsv_range(text: str) -> HsvRange:
 
 
 # Defaults for saturated, reasonably lit objects. Red is BallFinder's (core.motion.targeting).
+# Orange, purple and pink were measured on the simulated desk (objects scenario, 60 views, arm
+# and hand in view: each found its object in every view where it is ≥ 70 % visible, no blob
+# elsewhere). The wood there is H 10…16 at S ≤ ~130 (rarely 186), so orange needs S ≥ 185; the
+# arm's tool tip is orange too but fully saturated (S ≥ 250 inside its outline), so orange stops
+# at S 238 — a tool tip must never be taken for an object the arm then follows. Pink (a pale
+# magenta, S ~107) sits between purple (H ~147) and red (from 172).
 DEFAULT_COLOURS = (
     HsvRange("red", 172, 120, 70, 8),
+    HsvRange("orange", 9, 185, 100, 20, 238, 255),
     HsvRange("yellow", 22, 120, 100, 34),
     HsvRange("green", 40, 80, 50, 85),
     HsvRange("blue", 95, 120, 50, 130),
+    HsvRange("purple", 135, 90, 50, 156),
+    HsvRange("pink", 157, 60, 120, 171),
 )
 
 

@@ -208,3 +208,29 @@ def test_a_tracker_on_an_object_hidden_by_a_hand_stops_reporting(rig, desk):
     assert not any(reported[10 + 4:]), reported  # the tracker's removal check ended it
     tr = perc.tracks[1].trackers["left"]
     assert tr is not None and tr.lost
+
+
+def test_trackers_do_not_run_while_the_detector_sees_every_object(rig, desk, monkeypatch):
+    """Each tracker only notes the detections (ObjectTracker.observe); it runs (re-seeded from
+    the last detection) only where the detector misses its object."""
+    from core.detect.tracking import ObjectTracker
+
+    runs = []
+    real_update = ObjectTracker.update
+    monkeypatch.setattr(ObjectTracker, "update", lambda self, *a, **kw: runs.append(1) or real_update(self, *a, **kw))
+    rng = np.random.default_rng(21)
+    perc = _perception(rig, min_hits=2, tracker="kcf")
+    balls = [("red", _ball(-0.05, 0.15)), ("blue", _ball(0.08, 0.12))]
+    for k in range(12):
+        moved = [(name, p + np.array([0.002 * k, 0.0, 0.0])) for name, p in balls]
+        obs = perc.process(_frame(rig, desk, k, moved, rng))
+    assert len(_tri(obs)) == 2
+    assert all(t is not None for tr in perc.tracks.values() for t in tr.trackers.values())
+    assert runs == []
+    # the red ball hidden from the detector in the left view: its tracker runs and stands in
+    k = 12
+    moved = [(name, p + np.array([0.002 * k, 0.0, 0.0])) for name, p in balls]
+    left_only_blue = StereoFrame(seq=k, t=k / FPS, left=_render(rig, desk, "left", moved[1:], rng),
+                                 right=_render(rig, desk, "right", moved, rng))
+    obs = perc.process(left_only_blue)
+    assert len(runs) == 1

@@ -143,3 +143,55 @@ def test_unconfirmed_by_detections_for_lost_after_opportunities_is_lost():
     k = 12
     state = tracker.update(_frame(_path(k), rng), k / FPS, detections=[_Det(_box(_path(k)), tuple(_path(k)))])
     assert state.ok and not state.lost and state.reseeded
+
+
+class _CountingTracker:
+    """Wraps an OpenCV tracker and counts its updates."""
+
+    def __init__(self, inner):
+        self.inner, self.updates = inner, 0
+
+    def update(self, crop):
+        self.updates += 1
+        return self.inner.update(crop)
+
+
+def test_observing_detections_runs_no_tracker_and_the_next_update_starts_from_the_last_one():
+    rng = np.random.default_rng(8)
+    tracker = ObjectTracker("KCF")
+    tracker.start(_frame(_path(0), rng), _box(_path(0)), t=0.0)
+    counting = tracker._tracker = _CountingTracker(tracker._tracker)
+    for k in range(1, 11):
+        state = tracker.observe(_frame(_path(k), rng), k / FPS, _box(_path(k)))
+        assert state.ok and not state.lost and state.box == pytest.approx(_box(_path(k)))
+    assert counting.updates == 0  # the detector saw it: no tracker run
+    assert abs(state.velocity_px_s[0] - 150.0) < 30.0
+    reseeds = tracker.reseeds
+    for k in range(11, 31):  # the detector stops seeing it: the tracker takes over from frame 10's box
+        state = tracker.update(_frame(_path(k), rng), k / FPS)
+        assert state.ok
+        assert float(np.linalg.norm(np.array(state.centre_px) - _path(k))) < 4.0, k
+    assert tracker.reseeds == reseeds + 1  # seeded once, lazily, from the last observation
+
+
+def test_an_observation_brings_a_lost_object_back():
+    rng = np.random.default_rng(9)
+    tracker = ObjectTracker("KCF", lost_after=2)
+    tracker.start(_frame(_path(0), rng), _box(_path(0)), t=0.0)
+    for k in range(1, 4):
+        state = tracker.update(_frame(_path(k), rng), k / FPS, detections=[])
+    assert state.lost
+    state = tracker.observe(_frame(_path(4), rng), 4 / FPS, _box(_path(4)))
+    assert state.ok and not state.lost
+    state = tracker.update(_frame(_path(5), rng), 5 / FPS)
+    assert state.ok and float(np.linalg.norm(np.array(state.centre_px) - _path(5))) < 4.0
+
+
+def test_match_picks_the_detection_of_the_tracked_object():
+    rng = np.random.default_rng(10)
+    tracker = ObjectTracker("KCF")
+    assert tracker.match([_Det(_box(_path(0)), tuple(_path(0)))], 0.0) is None  # not started
+    tracker.start(_frame(_path(0), rng), _box(_path(0)), t=0.0)
+    mine, other = _Det(_box(_path(1)), tuple(_path(1))), _Det(_box((500.0, 80.0)), (500.0, 80.0))
+    assert tracker.match([other, mine], 1 / FPS) is mine
+    assert tracker.match([other], 1 / FPS) is None

@@ -6,7 +6,12 @@ import math
 import pytest
 
 from app.cli import main
-from app.headless import HeadlessRunner, label_matches
+from app.headless import (
+    HeadlessRunner,
+    detector_labels,
+    label_matches,
+    label_specificity,
+)
 from core.session import DeskSession, SessionOptions
 
 OBJECT_KEYS = ("targets_seen_ratio", "error_3d_mm_p50_by_kind", "error_3d_mm_p95_by_kind", "id_switches",
@@ -24,18 +29,37 @@ def test_objects_scenario_with_hsv_is_scored_per_kind(capsys):
                               "--detector", "hsv", "--duration", "10", "--json"])
     for key in OBJECT_KEYS:
         assert key in s, key
-    assert math.isfinite(s["targets_seen_ratio"]) and 0.8 < s["targets_seen_ratio"] <= 1.0
+    # the default colours name all but the white cup: 3 balls, the plush, 2 discs, the pink cup.
+    # A colour blob's centroid is the middle of what is seen of an object (top and side): on the
+    # 4.5 cm purple cylinder ~2 cm below its top (the truth point), on the pink cup ~3.4 cm (not
+    # seen at OBJECT_SEEN_M); hsv with circles finds the tops (next test). Measured 0.80.
+    assert math.isfinite(s["targets_seen_ratio"]) and 0.7 < s["targets_seen_ratio"] <= 1.0
     p50, p95 = s["error_3d_mm_p50_by_kind"], s["error_3d_mm_p95_by_kind"]
-    # the default HSV colours (red, yellow, green, blue) see the balls and the yellow plush
-    assert set(p50) == set(p95) == {"ball", "plush"}
+    assert set(p50) == set(p95) == {"ball", "plush", "disc"}
     for kind in p50:
         assert math.isfinite(p50[kind]) and math.isfinite(p95[kind]) and p50[kind] <= p95[kind]
-    assert p50["ball"] < 10.0  # ~0.8 mm measured: loose on purpose
-    assert p50["plush"] < 20.0
-    assert isinstance(s["id_switches"], int) and 0 <= s["id_switches"] < 20
+        assert p95[kind] <= 30.0  # only observations within OBJECT_SEEN_M are error samples
+    assert p50["ball"] < 2.0 and p95["ball"] < 6.0  # ~0.7 / 0.85 mm measured
+    assert p50["plush"] < 6.0  # ~2.0 mm measured
+    assert s["id_switches"] == 0
     assert s["velocity_error_mm_s_p50"] is not None and math.isfinite(s["velocity_error_mm_s_p50"])
     # the markers are still scored as before
     assert s["markers_seen_ratio"] > 0.9
+
+
+def test_hsv_with_circles_sees_every_kind_at_its_top_with_one_id_each(capsys):
+    """The ellipse of a disc's or cup's top fuses with the colour blob (one track, the colour's
+    label, the top's centre); the white cup is a "circle" track; circles on the balls merge into
+    their blobs. Measured over 20 s: seen 0.995, ball 0.72 / 0.85 mm, plush 2.0 / 3.3, disc 1.3 /
+    8.0, cup 1.9 / 2.2 (p50 / p95), 0 id switches."""
+    s = json_summary(capsys, ["--headless", "--fast", "--camera", "sim", "--scenario", "objects",
+                              "--detector", "hsv,circles", "--duration", "6", "--json"])
+    assert s["targets_seen_ratio"] >= 0.95
+    p50, p95 = s["error_3d_mm_p50_by_kind"], s["error_3d_mm_p95_by_kind"]
+    assert set(p50) == {"ball", "plush", "disc", "cup"}
+    assert p50["ball"] < 2.0 and p95["ball"] < 6.0
+    assert p50["disc"] < 4.0 and p50["cup"] < 4.0
+    assert s["id_switches"] == 0
 
 
 def test_without_detector_the_json_has_no_object_metrics(capsys):
@@ -84,6 +108,84 @@ def test_label_matches_colour_kind_or_whole_label():
     assert label_matches("red", "red ball") and label_matches("ball", "red ball")
     assert label_matches("red ball", "red ball")
     assert not label_matches("red", "orange disc") and not label_matches("", "red ball")
+
+
+def test_a_circle_names_round_kinds_less_specifically_than_a_colour():
+    for truth in ("red ball", "orange disc", "white cup"):
+        assert label_matches("circle", truth) and label_specificity("circle", truth) == 1
+    assert not label_matches("circle", "yellow plush") and label_specificity("circle", "yellow plush") == 0
+    assert label_specificity("orange", "orange disc") == 2 and label_specificity("disc", "orange disc") == 2
+
+
+def test_detector_labels_name_colours_and_circles():
+    class _Perception:
+        def __init__(self, detectors):
+            self.detectors = detectors
+
+    from core.detect.registry import make_detector
+
+    labels = detector_labels(_Perception([make_detector("hsv"), make_detector("circles"), make_detector("aruco")]))
+    assert "circle" in labels and {"red", "orange", "purple", "pink"} <= set(labels)
+    assert detector_labels(_Perception([make_detector("circles")])) == ("circle",)
+
+    class _Model:
+        name = "onnx:x.onnx"
+        params = object()
+
+    assert detector_labels(_Perception([make_detector("hsv"), _Model()])) is None  # free class names
+    assert detector_labels(None) is None
+
+
+def _scored(observations, truths, detectors=("hsv", "circles")):
+    """Score one frame of ``observations`` against ``truths`` with a bare runner (no session run)."""
+    from types import SimpleNamespace
+
+    from app.headless import RunMetrics
+    from core.messages import GroundTruth, ObjectTruth
+
+    runner = HeadlessRunner.__new__(HeadlessRunner)
+    runner.metrics = RunMetrics(scenario="objects", objects=True)
+    runner._object_labels = None if detectors is None else tuple(
+        lab for d in detectors for lab in (("circle",) if d == "circles" else ("red", "white")))
+    runner._object_ids, runner._object_truth_prev = {}, {}
+    objs = tuple(ObjectTruth(marker_id=-11 - k, base_p_centre=p, visible_left=True, visible_right=True, label=lab,
+                             kind=lab.split()[-1]) for k, (lab, p) in enumerate(truths))
+    for k, frame_obs in enumerate(observations):
+        runner._score_objects(SimpleNamespace(t=k / 30.0, truth=GroundTruth(objects=objs)), frame_obs)
+    return runner.metrics
+
+
+def _obs(object_id, label, p):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(object_id=object_id, label=label, base_p=p, triangulated=True, velocity_base=None)
+
+
+def test_the_colour_track_scores_a_ball_whichever_track_is_nearer_and_ids_never_flip():
+    ball = ("red ball", (0.1, 0.2, 0.025))
+    frames = []
+    for k in range(6):  # the circle track is nearer on odd frames
+        near, far = (0.1005, 0.2, 0.025), (0.102, 0.2, 0.025)
+        colour_p, circle_p = (far, near) if k % 2 else (near, far)
+        frames.append([_obs(1, "red", colour_p), _obs(2, "circle", circle_p)])
+    m = _scored(frames, [ball])
+    assert m.object_id_switches == 0
+    assert m.object_seen_pairs == 6
+    errors = sorted(m.object_error("ball"))
+    assert errors[0] == pytest.approx(0.5, abs=1e-6) and errors[-1] == pytest.approx(2.0, abs=1e-6)
+
+
+def test_a_white_cup_is_scored_on_its_circle_track_and_a_far_observation_is_not_an_error():
+    cup = ("white cup", (0.0, 0.3, 0.08))
+    m = _scored([[_obs(3, "circle", (0.0, 0.301, 0.08))], [_obs(3, "circle", (0.0, 0.36, 0.08))]], [cup])
+    assert m.object_visible_pairs == 2 and m.object_seen_pairs == 1
+    assert list(m.object_error("cup")) == [pytest.approx(1.0, abs=1e-6)]  # the 6 cm one is "not seen", no sample
+
+
+def test_an_id_change_of_the_same_labels_track_is_a_switch():
+    ball = ("red ball", (0.1, 0.2, 0.025))
+    m = _scored([[_obs(1, "red", ball[1])], [_obs(4, "red", ball[1])]], [ball])
+    assert m.object_id_switches == 1
 
 
 # --- following a marker-less object (--follow-object) -----------------------------------------
