@@ -5,9 +5,12 @@
  *   P1.4 = TB0.1  joint 2 PWM
  *   P1.5 = TB0.2  joint 3 PWM
  *   P2.0 = UCA0TXD, P2.1 = UCA0RXD (P2SEL1 = 1, P2SEL0 = 0), wired to the eZ-FET back-channel
+ *   P3.0 = HC-SR04 TRIG (GPIO output), P1.2 = HC-SR04 ECHO (GPIO input, port interrupt; 5 V
+ *          from the sensor: through a divider), used when a range sensor is fitted
  * Clocks: DCO 8 MHz -> MCLK = SMCLK = 8 MHz. UART from SMCLK (TI's 9600-baud settings for
  * 8 MHz). Timers from SMCLK / 8 = 1 MHz, up mode to 19999: a 20 ms (50 Hz) period with
- * 1 us steps, so a CCR value is the pulse width in microseconds.
+ * 1 us steps, so a CCR value is the pulse width in microseconds. Timer_A0 runs free
+ * (continuous mode) at the same 1 MHz: the range sensor's echo edges are stamped with TA0R.
  *
  * Built with TI's MSP430-GCC (msp430-elf-gcc). For host checks, test/msp430_stub/msp430.h
  * stands in for the real header and HAL_HOST_STUB turns the interrupt attributes off. */
@@ -32,6 +35,13 @@
 
 #define PWM_PERIOD_US 20000u
 #define PWM_PINS (BIT3 | BIT4 | BIT5)
+#define RANGE_TRIG_PIN BIT0 /* P3.0 */
+#define RANGE_ECHO_PIN BIT2 /* P1.2 */
+#define RANGE_ECHO_P1IV 0x06u /* P1IV value for P1.2 (P1IV_P1IFG2 in TI's header) */
+#define RANGE_TRIG_CYCLES 96u /* 12 us at 8 MHz: the HC-SR04 wants >= 10 us */
+
+/* echo timing, written by the port 1 interrupt */
+enum { RANGE_IDLE, RANGE_WAIT_RISE, RANGE_WAIT_FALL, RANGE_DONE };
 
 /* Ring buffers: one producer and one consumer each, 8-bit indices (atomic on the MSP430),
  * power-of-two sizes so wrap-around is a mask. */
@@ -47,6 +57,9 @@ static volatile uint8_t tx_tail; /* written by the TX interrupt */
 static volatile uint8_t ticks;   /* periods not yet taken by the main loop */
 /* The main loop writes these; the period-start interrupt copies them into the timers. */
 static volatile uint16_t next_pulse_us[HAL_JOINTS];
+static volatile uint8_t range_state;
+static volatile uint16_t range_rise_t; /* TA0R at the echo's rising edge */
+static volatile uint16_t range_echo_us;
 
 static void clock_init(void)
 {
@@ -92,6 +105,16 @@ static void pwm_init(void)
     TB0CTL = TBSSEL__SMCLK | ID__8 | MC__UP | TBCLR;
 }
 
+static void range_init(void)
+{
+    P3OUT &= (uint8_t)~RANGE_TRIG_PIN;
+    P3DIR |= RANGE_TRIG_PIN;
+    P1DIR &= (uint8_t)~RANGE_ECHO_PIN;
+    P1IE &= (uint8_t)~RANGE_ECHO_PIN;
+    range_state = RANGE_IDLE;
+    TA0CTL = TASSEL__SMCLK | ID__8 | MC__CONTINUOUS | TACLR; /* 1 MHz, wraps every 65.5 ms */
+}
+
 void hal_init(void)
 {
     uint8_t j;
@@ -105,6 +128,7 @@ void hal_init(void)
     clock_init();
     uart_init();
     pwm_init();
+    range_init();
     PM5CTL0 &= (uint16_t)~LOCKLPM5; /* FRAM parts start with pins locked: apply the above */
     __enable_interrupt();
 }
@@ -156,6 +180,30 @@ void hal_set_pulses(const uint16_t *pulse_us)
         /* a 16-bit store is atomic here; a torn set mixes two joints' periods at worst */
         next_pulse_us[j] = pulse_us[j];
     }
+}
+
+void hal_range_start(void)
+{
+    P1IE &= (uint8_t)~RANGE_ECHO_PIN;
+    range_state = RANGE_WAIT_RISE;
+    P1IES &= (uint8_t)~RANGE_ECHO_PIN; /* rising edge first */
+    P1IFG &= (uint8_t)~RANGE_ECHO_PIN;
+    P1IE |= RANGE_ECHO_PIN;
+    P3OUT |= RANGE_TRIG_PIN;
+    __delay_cycles(RANGE_TRIG_CYCLES);
+    P3OUT &= (uint8_t)~RANGE_TRIG_PIN;
+}
+
+uint8_t hal_range_take(uint16_t *echo_us)
+{
+    uint8_t done;
+    P1IE &= (uint8_t)~RANGE_ECHO_PIN; /* a late edge must not rewrite the result */
+    done = (uint8_t)(range_state == RANGE_DONE);
+    if (done) {
+        *echo_us = range_echo_us;
+    }
+    range_state = RANGE_IDLE;
+    return done;
 }
 
 void hal_wait_for_event(void)
@@ -215,5 +263,24 @@ HAL_ISR(HAL_UART_VECTOR, hal_uart_isr)
         break;
     default:
         break;
+    }
+}
+
+HAL_ISR(PORT1_VECTOR, hal_port1_isr)
+{
+    if (P1IV != RANGE_ECHO_P1IV) {
+        return; /* reading P1IV cleared the highest pending flag; only P1.2 is enabled */
+    }
+    if (range_state == RANGE_WAIT_RISE) {
+        range_rise_t = TA0R;
+        range_state = RANGE_WAIT_FALL;
+        P1IES |= RANGE_ECHO_PIN;
+        /* changing the edge while the pin is high may set the flag by itself */
+        P1IFG &= (uint8_t)~RANGE_ECHO_PIN;
+    } else if (range_state == RANGE_WAIT_FALL) {
+        /* 16-bit difference: right across a TA0R wrap, and echoes last < 40 ms < 65.5 ms */
+        range_echo_us = (uint16_t)(TA0R - range_rise_t);
+        range_state = RANGE_DONE;
+        P1IE &= (uint8_t)~RANGE_ECHO_PIN;
     }
 }

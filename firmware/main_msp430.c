@@ -1,4 +1,5 @@
-/* MSP430 entry point: drain the UART into fw, tick it at 50 Hz, drive the PWM, sleep. */
+/* MSP430 entry point: drain the UART into fw, tick it at 50 Hz, drive the PWM, time the range
+ * sensor (when fitted), sleep. */
 #include "hal.h"
 #include "src/fw.h"
 
@@ -9,6 +10,7 @@ int main(void)
     uint8_t out[16];
     hal_init();
     fw_init(&fw, HAL_JOINTS);
+    fw_range_enable(&fw, HAL_RANGE_SENSOR);
     hal_set_pulses(fw.pulse_us);
     for (;;) {
         uint8_t byte;
@@ -20,6 +22,15 @@ int main(void)
             fw_tick(&fw);
         }
         hal_set_pulses(fw.pulse_us);
+        if (fw_range_due(&fw)) {
+            if (fw.range_measuring) {
+                uint16_t echo_us = 0; /* stays 0 when no echo ended: "no echo" */
+                (void)hal_range_take(&echo_us);
+                fw_range_result(&fw, echo_us);
+            }
+            hal_range_start();
+            fw_range_started(&fw);
+        }
         for (;;) {
             uint8_t room = hal_uart_tx_free();
             n = fw_take_tx(&fw, out, room < sizeof out ? room : (uint8_t)sizeof out);

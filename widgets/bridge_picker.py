@@ -28,6 +28,8 @@ def bridge_url(protocol: str, port: str) -> str:
     port = port.strip()
     if protocol == "sim":
         return "sim://"
+    if protocol == "phidget" or port.startswith("phidget://"):  # a Phidget servo board: its own URL
+        return port if port.startswith("phidget://") else f"phidget://{port}"
     if protocol == "v1":
         return port if port.startswith(("loop://", "v1:")) else f"v1:{port}"
     return port if port.startswith("v2:") else f"v2:{port}"

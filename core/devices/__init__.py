@@ -1,4 +1,5 @@
-"""Devices: motor bridges (simulated arm, serial v1/v2), their protocols and the serial ports.
+"""Devices: motor bridges (simulated arm, serial v1/v2, Phidget servo boards), their protocols and
+the serial ports.
 
 ``open_bridge(url, profile)`` is the front door: it parses the URL (``core.devices.bridge``)
 and imports only the implementation it hands out.
@@ -25,6 +26,10 @@ def open_bridge(url: str, profile, clock=None) -> "MotorBridge":
         from core.devices.serial_v2 import SerialV2Bridge
 
         return SerialV2Bridge(url, profile, clock=clock)
+    if protocol == "phidget":
+        from core.devices.phidget import PhidgetServoBridge  # imports Phidget22 only on connect()
+
+        return PhidgetServoBridge(port, profile, clock=clock)
     from core.devices.serial_v1 import SerialV1Bridge
 
     return SerialV1Bridge(port, profile, clock=clock)

@@ -9,7 +9,9 @@ profile)`` chooses one from the URL:
 - ``/dev/ttyACM0``, ``COM3``, ``loop://`` or any pyserial URL, or the same with ``v1:`` in
   front — the seed protocol v1 (SerialV1Bridge): no feedback, the twin shows commanded angles;
 - ``v2:/dev/ttyACM0`` — our protocol v2 (SerialV2Bridge): measured joint states, heartbeat,
-  watchdog, e-stop.
+  watchdog, e-stop;
+- ``phidget://[SERIAL][?channels=0,1,2]`` — a Phidget servo controller through the vendor's
+  Phidget22 library (``phidget.PhidgetServoBridge``), as on the original assistive arm.
 
 There is deliberately no auto-detection of the protocol. Probing means sending a v2 frame
 (a PING is ``F5 F5 00 05 seq crc crc F7``) to a board that may run the ORIGINAL firmware, which
@@ -30,7 +32,9 @@ import os
 import re
 import stat
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from typing import Optional, Sequence
+from urllib.parse import parse_qs, urlsplit
 
 from core.clock import WallClock
 from core.messages import BridgeStatus, JointCommand, JointState, SequenceCounter
@@ -39,7 +43,8 @@ from core.motion.safety import to_servo_bytes_deg
 BRIDGE_CHOICES = (
     "sim:// (simulated arm) | /dev/ttyACM0, /dev/ttyUSB0, /dev/serial/by-id/…, COM3 or v1:<port> "
     "(original firmware, protocol v1: no feedback) | v2:<port>, e.g. v2:/dev/ttyACM0 (deskarm "
-    "firmware, protocol v2: feedback, watchdog, e-stop) | loop:// (pyserial loopback). "
+    "firmware, protocol v2: feedback, watchdog, e-stop) | phidget://[SERIAL][?channels=0,1,2] "
+    "(Phidget servo board, needs pip install 'deskarm[phidget]') | loop:// (pyserial loopback). "
     "No auto-detection: a v2 probe would move an arm running the original firmware"
 )
 
@@ -253,6 +258,8 @@ SERIAL_URL_SCHEMES = ("loop", "socket", "rfc2217")
 _SERIAL_URL_PREFIXES = ("/dev/", "COM", "\\\\.\\COM") + tuple(f"{s}://" for s in SERIAL_URL_SCHEMES)
 V1_PREFIX = "v1:"  # explicit protocol v1 (the default for a plain port)
 V2_PREFIX = "v2:"  # protocol v2: deskarm firmware only (see the module docstring)
+PHIDGET_SCHEME = "phidget://"  # a Phidget servo board (core.devices.phidget)
+PHIDGET_MAX_CHANNEL = 15  # the largest Phidget servo controller (RCC1000) has 16 channels
 
 
 def _is_serial_port_url(port: str) -> bool:
@@ -266,7 +273,8 @@ def _is_serial_port_url(port: str) -> bool:
 
 
 def split_bridge_url(url: str) -> tuple[str, str]:
-    """``(protocol, port)``: ('sim', 'sim://'), ('v1', '/dev/ttyACM0') or ('v2', '/dev/ttyACM0').
+    """``(protocol, port)``: ('sim', 'sim://'), ('v1', '/dev/ttyACM0'), ('v2', '/dev/ttyACM0') or
+    ('phidget', 'phidget://123456?channels=0,1,2') (the whole URL: it is the "port").
 
     A plain port means v1, as it always did; ``v1:`` says so explicitly, ``v2:`` chooses v2.
     ValueError names the value and the valid forms.
@@ -274,6 +282,9 @@ def split_bridge_url(url: str) -> tuple[str, str]:
     url = (url or "sim://").strip()
     if url in ("sim", "sim://"):
         return "sim", "sim://"
+    if url.lower().startswith(PHIDGET_SCHEME):
+        parse_phidget_url(url)  # ValueError naming what is wrong
+        return "phidget", url
     protocol = "v1"
     port = url
     low = url.lower()
@@ -284,10 +295,54 @@ def split_bridge_url(url: str) -> tuple[str, str]:
     raise ValueError(f"unknown --bridge value {url!r}; valid: {BRIDGE_CHOICES}")
 
 
+@dataclass(frozen=True)
+class PhidgetUrl:
+    """What a ``phidget://`` URL names."""
+
+    serial_number: Optional[int]  # None = any board
+    channels: Optional[tuple[int, ...]]  # channel per joint; None = 0, 1, 2 …
+
+def parse_phidget_url(url: str) -> PhidgetUrl:
+    """``phidget://[SERIAL][?channels=a,b,c]`` → PhidgetUrl; ValueError naming the part that is wrong."""
+    text = (url or "").strip()
+    if not text.lower().startswith(PHIDGET_SCHEME):
+        raise ValueError(f"{url!r} is not a Phidget URL: expected phidget://[SERIAL][?channels=0,1,2]")
+    parts = urlsplit(text)
+    where = f"{url!r}: "
+    if parts.path not in ("", "/") or parts.fragment:
+        raise ValueError(where + "expected phidget://[SERIAL][?channels=0,1,2], e.g. phidget://123456?channels=0,1,2")
+    serial_number: Optional[int] = None
+    if parts.netloc:
+        if not parts.netloc.isdigit() or int(parts.netloc) <= 0:
+            raise ValueError(where + f"serial number {parts.netloc!r} must be a positive whole number "
+                             "(it is printed on the board and shown by the Phidget Control Panel)")
+        serial_number = int(parts.netloc)
+    query = parse_qs(parts.query, keep_blank_values=True) if parts.query else {}
+    unknown = sorted(set(query) - {"channels"})
+    if unknown:
+        raise ValueError(where + f"unknown option {unknown[0]!r}; the only option is channels=0,1,2")
+    channels: Optional[tuple[int, ...]] = None
+    if "channels" in query:
+        raw = query["channels"][-1]
+        try:
+            channels = tuple(int(c) for c in raw.split(","))
+        except ValueError:
+            raise ValueError(where + f"channels={raw!r}: expected channel numbers separated by commas, "
+                             "e.g. channels=0,1,2") from None
+        bad = [c for c in channels if not 0 <= c <= PHIDGET_MAX_CHANNEL]
+        if bad:
+            raise ValueError(where + f"channel {bad[0]} is outside 0…{PHIDGET_MAX_CHANNEL}")
+        if len(set(channels)) != len(channels):
+            raise ValueError(where + f"channels={raw}: a channel is used twice")
+    return PhidgetUrl(serial_number=serial_number, channels=channels)
+
+
+
 def parse_bridge_url(url: str) -> str:
-    """'sim', 'serial' (protocol v1) or 'serial-v2'; ValueError naming the value and the valid forms."""
+    """'sim', 'serial' (protocol v1), 'serial-v2' or 'phidget'; ValueError naming the value and the
+    valid forms."""
     protocol, _ = split_bridge_url(url)
-    return {"sim": "sim", "v1": "serial", "v2": "serial-v2"}[protocol]
+    return {"sim": "sim", "v1": "serial", "v2": "serial-v2", "phidget": "phidget"}[protocol]
 
 
 def is_finite_q(q: Sequence[float]) -> bool:

@@ -35,6 +35,11 @@ PULSE_MIN_US = 400  # lowest min_pulse_us a CONFIG may set
 PULSE_MAX_US = 3000  # highest max_pulse_us a CONFIG may set
 SPEED_MAX_DPS = 1000  # highest max_speed_dps a CONFIG may set; 0 = unlimited
 STATUS_HEADER_LEN = 8
+RANGE_LEN = 4  # RANGE payload: distance_mm u16, tick u16
+RANGE_NO_READING = 0xFFFF  # RANGE distance meaning no echo, nearer than 20 mm or farther than 4 m
+RANGE_MIN_MM = 20  # the HC-SR04's near limit: the board reports nothing nearer
+RANGE_MAX_MM = 4000  # its far limit
+RANGE_HZ = 10  # a board with a range sensor measures and sends RANGE this often
 WATCHDOG_S = 0.5  # the board holds and flags after this long without a valid frame
 TICK_HZ = 50  # the board's servo period and rate-limiter tick
 
@@ -48,6 +53,7 @@ class MsgType(IntEnum):
     ARM = 0x04
     PING = 0x05
     STATUS = 0x81
+    RANGE = 0x82
 
 
 class Flag(IntFlag):
@@ -181,6 +187,12 @@ def encode_status(
     return encode_frame(MsgType.STATUS, seq, payload)
 
 
+def encode_range(seq: int, distance_mm: Optional[int], tick: int) -> bytes:
+    """RANGE (board to host), for simulated boards and tests; None = no valid reading."""
+    mm = RANGE_NO_READING if distance_mm is None else int(distance_mm)
+    return encode_frame(MsgType.RANGE, seq, _u16(mm, "distance_mm") + _u16(tick, "tick"))
+
+
 @dataclass(frozen=True)
 class SetJointsFrame:
     """Host to board: joint targets."""
@@ -243,7 +255,28 @@ class StatusFrame:
         return len(self.pulses_us)
 
 
-Frame = Union[SetJointsFrame, ConfigFrame, EstopFrame, ArmFrame, PingFrame, StatusFrame]
+@dataclass(frozen=True)
+class RangeFrame:
+    """Board to host: one HC-SR04 reading, sent unasked at RANGE_HZ by a board with a sensor.
+
+    ``seq`` is the board's own RANGE count (a gap means readings were lost); ``tick`` the
+    board's 50 Hz tick count when the measurement was triggered (wraps modulo 65536).
+    """
+
+    seq: int
+    distance_mm: int  # 20..4000, or RANGE_NO_READING
+    tick: int
+
+    @property
+    def distance_m(self) -> Optional[float]:
+        """The distance in metres, or None when the sensor had no valid reading (or the board
+        sent a value outside the sensor's 20–4000 mm, which a conforming board never does)."""
+        if not RANGE_MIN_MM <= self.distance_mm <= RANGE_MAX_MM:
+            return None
+        return self.distance_mm / 1000.0
+
+
+Frame = Union[SetJointsFrame, ConfigFrame, EstopFrame, ArmFrame, PingFrame, StatusFrame, RangeFrame]
 
 
 def _u16_at(p: bytes, i: int) -> int:
@@ -284,6 +317,10 @@ def parse_payload(msg_type: int, seq: int, payload: bytes) -> Optional[Frame]:
             bad_frames=_u16_at(payload, 4),
             dropped_bytes=_u16_at(payload, 6),
         )
+    if msg_type == MsgType.RANGE:
+        if n != RANGE_LEN:
+            return None
+        return RangeFrame(seq=seq, distance_mm=_u16_at(payload, 0), tick=_u16_at(payload, 2))
     return None
 
 
@@ -313,6 +350,8 @@ def encode(frame: Frame) -> bytes:
             frame.bad_frames,
             frame.dropped_bytes,
         )
+    if isinstance(frame, RangeFrame):
+        return encode_range(frame.seq, frame.distance_mm, frame.tick)
     raise TypeError(f"not a v2 frame: {frame!r}")
 
 

@@ -6,7 +6,8 @@
 
 Threads. The caller (the bridge worker) calls ``send``, ``estop``, ``rearm``, ``status`` and
 ``joint_state``. One daemon I/O thread per connection reads with a short timeout, feeds the
-``V2Decoder``, turns each STATUS into a measured ``JointState``, sends the 10 Hz heartbeat PING
+``V2Decoder``, turns each STATUS into a measured ``JointState`` (and each RANGE, from a board
+with an HC-SR04, into the latest ``RangeReading``), sends the 10 Hz heartbeat PING
 and flushes a command that had to wait for its 20 ms slot. Every write to the port, from
 either thread, happens under one lock (``_write_lock``); what the I/O thread learns is kept
 under ``_cond``. Framing is pure code in ``core.devices.protocol_v2``.
@@ -38,6 +39,7 @@ from core.devices.protocol_v2 import (
     PULSE_MIN_US,
     SPEED_MAX_DPS,
     Flag,
+    RangeFrame,
     StatusFrame,
     V2Decoder,
     encode_arm,
@@ -60,6 +62,7 @@ IO_POLL_S = 0.005  # I/O thread read timeout: how late a waiting command can be 
 WRITE_TIMEOUT_S = 1.0  # a write blocked this long means the port is dead
 STALE_STATUS_S = 1.0  # no STATUS for this long while pinging: the status bar says so
 RTT_KEEP = 1000  # round-trip samples kept for status() and the bench
+RANGE_STALE_S = 0.5  # range_m() ignores a reading older than this (the board sends 10 a second)
 
 FLAG_WORDS = {
     Flag.ESTOP: "e-stop (pulses off until re-armed)",
@@ -152,6 +155,19 @@ class V2Counters:
     commands_coalesced: int  # commands replaced by a newer one before their slot
     pings_sent: int  # PINGs written (heartbeat and ping())
     board_resets: int  # board restarts noticed (its frame counter went back)
+    range_frames: int = 0  # RANGE readings received on this connection
+
+
+@dataclass(frozen=True)
+class RangeReading:
+    """The newest RANGE from the board's HC-SR04 (along the hand camera's axis on the
+    assistive arm)."""
+
+    distance_m: Optional[float]  # None: no echo, nearer than 20 mm or farther than 4 m
+    t: float  # arrival time on the bridge's clock (s)
+    monotonic_t: float  # arrival time, time.monotonic() (s): for ages
+    seq: int  # the board's RANGE count (0–255): a gap means lost readings
+    board_tick: int  # the board's 50 Hz tick when it triggered the measurement (wraps at 65536)
 
 
 def _delta16(new: int, old: int) -> int:
@@ -223,6 +239,8 @@ class SerialV2Bridge(MotorBridge):
         self._pulses_off = False
         self._rtt_s: deque[float] = deque(maxlen=RTT_KEEP)
         self._note = ""  # one-off remark for the status bar (e.g. a board reset)
+        self._range: Optional[RangeReading] = None  # newest RANGE on this connection
+        self._range_count = 0
 
         self._thread: Optional[threading.Thread] = None
         self._stop = threading.Event()
@@ -319,6 +337,7 @@ class SerialV2Bridge(MotorBridge):
             self._status, self._status_t, self._status_count = None, None, 0
             self._board_base = None
             self._board_last_good = None
+            self._range, self._range_count = None, 0
         deadline = time.monotonic() + self.reply_timeout_s
         reply = None
         while reply is None and time.monotonic() < deadline:
@@ -329,6 +348,8 @@ class SerialV2Bridge(MotorBridge):
                     self._on_status(frame, now)
                     if frame.seq == ping_seq:
                         reply = frame
+                elif isinstance(frame, RangeFrame):
+                    self._on_range(frame, now)
         if reply is None:
             raise BridgeError(
                 f"{self.port_url}: no reply — wrong firmware or baud rate? This needs the deskarm "
@@ -375,6 +396,8 @@ class SerialV2Bridge(MotorBridge):
                     for frame in self._decoder.feed(data):
                         if isinstance(frame, StatusFrame):
                             self._after_status(port, frame, *self._on_status(frame, now))
+                        elif isinstance(frame, RangeFrame):
+                            self._on_range(frame, now)
                 self._flush_pending(port, now)
                 hz = self.heartbeat_hz
                 if hz <= 0:
@@ -490,6 +513,15 @@ class SerialV2Bridge(MotorBridge):
             self._status_count += 1
             self._cond.notify_all()
         return sent, reset_seen
+
+    def _on_range(self, frame: RangeFrame, now: float) -> None:
+        """A RANGE arrived: keep it as the newest reading."""
+        reading = RangeReading(distance_m=frame.distance_m, t=self.clock.now(), monotonic_t=now,
+                               seq=frame.seq, board_tick=frame.tick)
+        with self._cond:
+            self._range = reading
+            self._range_count += 1
+            self._cond.notify_all()
 
     def _after_status(self, port, frame: StatusFrame, ping_t: Optional[float], reset_seen: bool) -> None:
         """Repairs a STATUS asks for: CONFIG after a board restart, ESTOP if ours was lost."""
@@ -627,6 +659,37 @@ class SerialV2Bridge(MotorBridge):
                     return None
                 self._cond.wait(left)
 
+    def range_reading(self) -> Optional[RangeReading]:
+        """The newest range reading on this connection, however old; None from a board without
+        a range sensor (or firmware that predates RANGE) and before the first reading."""
+        with self._cond:
+            return self._range
+
+    def range_m(self, max_age_s: float = RANGE_STALE_S) -> Optional[float]:
+        """The distance the board's range sensor measures now (m), or None: no sensor, no valid
+        echo, or no reading for ``max_age_s`` seconds (lost readings are never reused)."""
+        reading = self.range_reading()
+        if reading is None or time.monotonic() - reading.monotonic_t > max_age_s:
+            return None
+        return reading.distance_m
+
+    def wait_for_range(self, timeout: float,
+                       predicate: Optional[Callable[[RangeReading], bool]] = None) -> Optional[RangeReading]:
+        """Block until a RANGE arriving after this call (satisfying ``predicate``); None after
+        ``timeout`` s or when the link goes down."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            seen = self._range_count
+            while True:
+                if self._range_count > seen:
+                    seen = self._range_count
+                    if predicate is None or predicate(self._range):
+                        return self._range
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._connected:
+                    return None
+                self._cond.wait(left)
+
     def rtt_samples_s(self) -> list[float]:
         """PING → STATUS round trips measured so far (s), oldest first."""
         with self._cond:
@@ -646,7 +709,7 @@ class SerialV2Bridge(MotorBridge):
                 board_bad_frames=board[1], board_dropped_bytes=board[2],
                 status_frames=self._status_count, commands_written=self.commands_sent,
                 commands_coalesced=self.commands_coalesced, pings_sent=self.pings_sent,
-                board_resets=self._board_resets,
+                board_resets=self._board_resets, range_frames=self._range_count,
             )
 
     def status(self) -> BridgeStatus:
@@ -669,6 +732,11 @@ class SerialV2Bridge(MotorBridge):
                 parts.append(f"round trip {statistics.median(rtts) * 1e3:.1f} ms")
             if self.heartbeat_hz > 0 and st_t is not None and time.monotonic() - st_t > STALE_STATUS_S:
                 parts.append(f"no STATUS for {time.monotonic() - st_t:.1f} s — board not answering (reset? unplugged?)")
+            with self._cond:
+                reading = self._range
+            if reading is not None and time.monotonic() - reading.monotonic_t <= RANGE_STALE_S:
+                d = reading.distance_m
+                parts.append("range: no echo" if d is None else f"range {d * 1e3:.0f} mm")
             if self._note:
                 parts.append(self._note)
             message = " · ".join(parts)

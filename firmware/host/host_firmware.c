@@ -1,6 +1,11 @@
 /* host_firmware: the firmware's pure core (src/) behind a pseudo-terminal instead of a UART.
  *
- *   host_firmware [--joints N]
+ *   host_firmware [--joints N] [--range MM]
+ *
+ * --range MM simulates an HC-SR04 range sensor with a target MM millimetres away (RANGE frames
+ * at 10 Hz once the board is in v2 mode). Lines on stdin change it while running:
+ *   RANGE <mm>       the target is now <mm> away (the echo is timed as the sound would take)
+ *   RANGE none       nothing comes back (the sensor's ~38 ms no-echo pulse)
  *
  * stdout, one line each, flushed at once:
  *   PORT /dev/pts/N        first line: open this path like a serial port (any baud rate)
@@ -30,6 +35,38 @@
 
 #define TICK_NS (1000000000LL / SERVO_TICK_HZ)
 #define MAX_CATCH_UP_TICKS 10 /* after a stall (suspend, debugger) resync instead of bursting */
+#define NO_ECHO_PULSE_US 38000u /* what an HC-SR04 reports when nothing comes back */
+
+/* the simulated range sensor */
+static int range_enabled;
+static uint16_t range_echo_us = NO_ECHO_PULSE_US;
+
+/* The echo an HC-SR04 would time for a target mm millimetres away (343 m/s, there and back). */
+static uint16_t echo_for_mm(long mm)
+{
+    long us;
+    if (mm <= 0) {
+        return 0u;
+    }
+    us = (mm * 2000L + 171L) / 343L;
+    return us > 65535L ? (uint16_t)65535u : (uint16_t)us;
+}
+
+static int parse_range(const char *text, uint16_t *echo_us)
+{
+    char *end = NULL;
+    long mm;
+    if (strcmp(text, "none") == 0) {
+        *echo_us = NO_ECHO_PULSE_US;
+        return 1;
+    }
+    mm = strtol(text, &end, 10);
+    if (end == text || *end != '\0' || mm < 0 || mm > 10000) {
+        return 0;
+    }
+    *echo_us = echo_for_mm(mm);
+    return 1;
+}
 
 static volatile sig_atomic_t stop_requested;
 
@@ -66,12 +103,19 @@ static int parse_joints(int argc, char **argv)
                 exit(2);
             }
             joints = (int)n;
+        } else if (strcmp(argv[i], "--range") == 0 && i + 1 < argc) {
+            if (!parse_range(argv[++i], &range_echo_us)) {
+                fprintf(stderr, "host_firmware: --range %s: expected a distance in mm (0..10000) or none\n",
+                        argv[i]);
+                exit(2);
+            }
+            range_enabled = 1;
         } else if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
-            printf("usage: host_firmware [--joints N]   (N = 1..%u, default %u)\n",
+            printf("usage: host_firmware [--joints N] [--range MM]   (N = 1..%u, default %u)\n",
                    (unsigned)FW_MAX_JOINTS, (unsigned)FW_DEFAULT_JOINTS);
             exit(0);
         } else {
-            fprintf(stderr, "host_firmware: unknown argument %s (usage: host_firmware [--joints N])\n",
+            fprintf(stderr, "host_firmware: unknown argument %s (usage: host_firmware [--joints N] [--range MM])\n",
                     argv[i]);
             exit(2);
         }
@@ -152,6 +196,33 @@ static void send_replies(fw_t *fw, int master)
     }
 }
 
+/* Read "RANGE <mm>|none" lines from stdin; returns 0 at end of input (stop polling it). */
+static int read_commands(void)
+{
+    static char line[64];
+    static size_t used;
+    char buf[64];
+    ssize_t n = read(STDIN_FILENO, buf, sizeof buf);
+    ssize_t i;
+    if (n <= 0) {
+        return n < 0 && errno == EINTR;
+    }
+    for (i = 0; i < n; i++) {
+        if (buf[i] != '\n') {
+            if (used + 1u < sizeof line) {
+                line[used++] = buf[i];
+            }
+            continue;
+        }
+        line[used] = '\0';
+        used = 0;
+        if (strncmp(line, "RANGE ", 6) != 0 || !parse_range(line + 6, &range_echo_us)) {
+            fprintf(stderr, "host_firmware: stdin: %s: expected RANGE <mm> or RANGE none\n", line);
+        }
+    }
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     static fw_t fw;
@@ -162,6 +233,7 @@ int main(int argc, char **argv)
     int master;
     int64_t next_tick;
     int joints = parse_joints(argc, argv);
+    int stdin_open = range_enabled;
 
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal; /* no SA_RESTART: poll() returns EINTR and the loop ends */
@@ -172,20 +244,32 @@ int main(int argc, char **argv)
 
     master = open_pty(slave_path, sizeof slave_path, &slave_fd);
     fw_init(&fw, (uint8_t)joints);
+    fw_range_enable(&fw, (uint8_t)range_enabled);
     printf("PORT %s\n", slave_path);
     fflush(stdout);
 
     next_tick = now_ns() + TICK_NS;
     while (!stop_requested) {
+        struct pollfd pfds[2];
         struct pollfd pfd;
         int64_t wait_ns = next_tick - now_ns();
         int timeout_ms = wait_ns <= 0 ? 0 : (int)((wait_ns + 999999) / 1000000);
         int ready;
 
-        pfd.fd = master;
-        pfd.events = POLLIN;
-        pfd.revents = 0;
-        ready = poll(&pfd, 1, timeout_ms);
+        pfds[0].fd = master;
+        pfds[0].events = POLLIN;
+        pfds[0].revents = 0;
+        pfds[1].fd = STDIN_FILENO;
+        pfds[1].events = POLLIN;
+        pfds[1].revents = 0;
+        ready = poll(pfds, stdin_open ? 2u : 1u, timeout_ms);
+        pfd = pfds[0];
+        if (ready > 0 && stdin_open && (pfds[1].revents & (POLLIN | POLLHUP))) {
+            stdin_open = read_commands();
+            if (!(pfd.revents & (POLLIN | POLLHUP | POLLERR))) {
+                ready = 0; /* only a command: go on to the tick */
+            }
+        }
         if (ready < 0) {
             if (errno == EINTR) {
                 continue;
@@ -228,12 +312,20 @@ int main(int argc, char **argv)
             int caught_up = 0;
             while (now >= next_tick && !stop_requested) {
                 fw_tick(&fw);
+                if (fw_range_due(&fw)) {
+                    /* as main_msp430.c: report the last measurement, trigger the next */
+                    if (fw.range_measuring) {
+                        fw_range_result(&fw, range_echo_us);
+                    }
+                    fw_range_started(&fw);
+                }
                 report_pulses(&fw, shown);
                 next_tick += TICK_NS;
                 if (++caught_up >= MAX_CATCH_UP_TICKS) {
                     next_tick = now + TICK_NS;
                 }
             }
+            send_replies(&fw, master); /* RANGE frames come from ticks, not from input */
         }
     }
     close(master);

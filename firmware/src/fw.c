@@ -17,6 +17,7 @@ void fw_init(fw_t *fw, uint8_t n_joints)
     for (j = 0; j < FW_MAX_JOINTS; j++) {
         servo_config_default(&fw->joint[j].cfg);
     }
+    fw->range_mm = RANGE_NO_ECHO;
 }
 
 static void update_outputs(fw_t *fw)
@@ -86,17 +87,24 @@ static void config(fw_t *fw, const uint8_t *p)
     }
 }
 
-static void queue_status(fw_t *fw, uint8_t seq)
+/* Queue one whole frame for the host, or nothing when it does not fit: the host is asking
+ * faster than 9600 baud drains replies, and a skipped frame is better than a torn one. */
+static void queue_frame(fw_t *fw, uint8_t type, uint8_t seq, const uint8_t *payload, uint8_t len)
 {
-    uint8_t payload[V2_STATUS_HEADER_LEN + 2u * FW_MAX_JOINTS];
     uint8_t wire[V2_MAX_WIRE];
-    uint8_t len = fw_status_payload(fw, payload);
-    uint16_t n = v2_encode_frame(V2_TYPE_STATUS, seq, payload, len, wire, sizeof wire);
+    uint16_t n = v2_encode_frame(type, seq, payload, len, wire, sizeof wire);
     if (n == 0u || (uint16_t)(fw->tx_len + n) > FW_TX_SIZE) {
-        return; /* the host is pinging faster than 9600 baud drains replies: skip one */
+        return;
     }
     memcpy(&fw->tx[fw->tx_len], wire, n);
     fw->tx_len = (uint8_t)(fw->tx_len + n);
+}
+
+static void queue_status(fw_t *fw, uint8_t seq)
+{
+    uint8_t payload[V2_STATUS_HEADER_LEN + 2u * FW_MAX_JOINTS];
+    uint8_t len = fw_status_payload(fw, payload);
+    queue_frame(fw, V2_TYPE_STATUS, seq, payload, len);
 }
 
 static void frame(fw_t *fw, const link_out_t *f)
@@ -149,6 +157,15 @@ void fw_feed(fw_t *fw, uint8_t byte)
 void fw_tick(fw_t *fw)
 {
     uint8_t j;
+    fw->tick_count++;
+    if (fw->range_enabled) {
+        if (fw->range_countdown <= 1u) {
+            fw->range_countdown = FW_RANGE_PERIOD_TICKS;
+            fw->range_due = 1;
+        } else {
+            fw->range_countdown--;
+        }
+    }
     if (fw->link.mode == LINK_MODE_V2) {
         if (fw->ticks_since_frame < 255u) {
             fw->ticks_since_frame++;
@@ -208,6 +225,50 @@ uint8_t fw_status_payload(const fw_t *fw, uint8_t *out)
         v2_put_u16(&out[V2_STATUS_HEADER_LEN + 2u * j], fw->pulse_us[j]);
     }
     return (uint8_t)(V2_STATUS_HEADER_LEN + 2u * fw->n_joints);
+}
+
+void fw_range_enable(fw_t *fw, uint8_t enabled)
+{
+    fw->range_enabled = (uint8_t)(enabled != 0u);
+    fw->range_countdown = 1u; /* the first measurement starts on the next tick */
+    fw->range_due = 0;
+    fw->range_measuring = 0;
+}
+
+uint8_t fw_range_due(fw_t *fw)
+{
+    uint8_t due = (uint8_t)(fw->range_due && fw->range_enabled);
+    fw->range_due = 0;
+    return due;
+}
+
+void fw_range_started(fw_t *fw)
+{
+    fw->range_measuring = 1;
+    fw->range_trigger_tick = fw->tick_count;
+}
+
+uint8_t fw_range_payload(uint16_t distance_mm, uint16_t trigger_tick, uint8_t *out)
+{
+    v2_put_u16(&out[0], distance_mm);
+    v2_put_u16(&out[2], trigger_tick);
+    return V2_RANGE_LEN;
+}
+
+void fw_range_result(fw_t *fw, uint16_t echo_us)
+{
+    uint8_t payload[V2_RANGE_LEN];
+    if (!fw->range_measuring) {
+        return;
+    }
+    fw->range_measuring = 0;
+    fw->range_mm = range_echo_to_mm(echo_us);
+    if (fw->link.mode != LINK_MODE_V2) {
+        return; /* a v1 host never reads the line: keep it quiet */
+    }
+    (void)fw_range_payload(fw->range_mm, fw->range_trigger_tick, payload);
+    queue_frame(fw, V2_TYPE_RANGE, fw->range_seq, payload, V2_RANGE_LEN);
+    fw->range_seq++;
 }
 
 uint8_t fw_take_tx(fw_t *fw, uint8_t *dst, uint8_t max)

@@ -35,6 +35,7 @@
 #define V2_TYPE_ARM 0x04u
 #define V2_TYPE_PING 0x05u
 #define V2_TYPE_STATUS 0x81u
+#define V2_TYPE_RANGE 0x82u /* HC-SR04 reading, sent unasked at a fixed rate */
 
 /* SET_JOINTS: one big-endian uint16 per joint, centidegrees 0..18000; this value = keep */
 #define V2_ANGLE_KEEP 0xFFFFu
@@ -49,6 +50,10 @@
 
 /* STATUS payload: flags, n_joints, good u16, bad u16, dropped u16, then pulses u16 each */
 #define V2_STATUS_HEADER_LEN 8u
+
+/* RANGE payload: distance_mm u16 (0xFFFF = no valid reading), tick u16 (the board's 50 Hz
+ * tick count when the measurement was triggered, wrapping) */
+#define V2_RANGE_LEN 4u
 
 /* STATUS flags */
 #define V2_FLAG_V2_MODE 0x01u         /* locked into v2: v1 bytes are ignored until reset */

@@ -8,6 +8,7 @@
 #include "../src/crc16.h"
 #include "../src/fw.h"
 #include "../src/link.h"
+#include "../src/range.h"
 #include "../src/servo.h"
 #include "../src/v2.h"
 #include "unit.h"
@@ -1057,6 +1058,211 @@ static void test_tx_queue_skips_a_reply_that_does_not_fit_instead_of_truncating_
     CHECK_EQ(fw.tx_len % first, 0u); /* whole frames only */
 }
 
+
+/* ---- range sensor ------------------------------------------------------------------ */
+
+static void test_range_echo_widths_from_vectors_json_convert_to_their_distances(void)
+{
+    unsigned i;
+    CHECK(VEC_RANGE_ECHO_COUNT >= 5u);
+    for (i = 0; i < VEC_RANGE_ECHO_COUNT; i++) {
+        const vec_range_echo_t *v = &VEC_RANGE_ECHO[i];
+        CHECK_EQ_CTX(v->name, range_echo_to_mm(v->echo_us), v->distance_mm);
+    }
+}
+
+static void test_range_every_echo_width_gives_no_reading_or_a_distance_within_20_to_4000_mm(void)
+{
+    uint32_t e;
+    uint16_t last = 0;
+    for (e = 0; e <= 0xFFFFu; e++) {
+        uint16_t mm = range_echo_to_mm((uint16_t)e);
+        if (mm == RANGE_NO_ECHO) {
+            continue;
+        }
+        CHECK(mm >= RANGE_MIN_MM && mm <= RANGE_MAX_MM);
+        CHECK(mm >= last); /* longer echoes are never nearer */
+        /* 343 m/s there and back: 0.1715 mm per us, rounded to the nearest mm */
+        CHECK(2000u * (uint32_t)mm + 1000u >= e * 343u);
+        CHECK(2000u * (uint32_t)mm <= e * 343u + 1000u);
+        CHECK(e <= RANGE_ECHO_TIMEOUT_US);
+        last = mm;
+    }
+}
+
+static void test_range_frame_vectors_encode_to_their_wire_bytes_and_a_board_refuses_them(void)
+{
+    unsigned i;
+    CHECK(VEC_RANGE_FRAMES_COUNT >= 2u);
+    for (i = 0; i < VEC_RANGE_FRAMES_COUNT; i++) {
+        const vec_range_frame_t *v = &VEC_RANGE_FRAMES[i];
+        uint8_t payload[V2_RANGE_LEN];
+        uint8_t wire[V2_MAX_WIRE];
+        uint16_t n;
+        fw_t fw;
+        CHECK_EQ_CTX(v->name, fw_range_payload(v->distance_mm, v->tick, payload), v->payload_len);
+        CHECK_EQ_CTX(v->name, memcmp(payload, v->payload, v->payload_len), 0);
+        {
+            uint8_t body[3u + V2_RANGE_LEN];
+            body[0] = V2_RANGE_LEN;
+            body[1] = V2_TYPE_RANGE;
+            body[2] = v->seq;
+            memcpy(&body[3], payload, V2_RANGE_LEN);
+            CHECK_EQ_CTX(v->name, crc16_ccitt(body, sizeof body), v->crc);
+        }
+        n = v2_encode_frame(V2_TYPE_RANGE, v->seq, payload, V2_RANGE_LEN, wire, sizeof wire);
+        CHECK_EQ_CTX(v->name, n, v->wire_len);
+        CHECK_EQ_CTX(v->name, memcmp(wire, v->wire, n), 0);
+        CHECK_EQ_CTX(v->name, v2_board_accepts(V2_TYPE_RANGE, payload, V2_RANGE_LEN), 0u);
+        fw_init(&fw, 3);
+        feed(&fw, wire, n); /* board to host only: a board that hears one counts it as bad */
+        CHECK_EQ_CTX(v->name, fw.link.bad_frames, 1u);
+        CHECK_EQ_CTX(v->name, fw.link.good_frames, 0u);
+    }
+}
+
+static void test_range_is_due_every_5_ticks_only_while_enabled(void)
+{
+    fw_t fw;
+    unsigned k;
+    unsigned due = 0;
+    fw_init(&fw, 3);
+    ticks(&fw, 20);
+    CHECK_EQ(fw_range_due(&fw), 0u); /* no sensor configured: never */
+    fw_range_enable(&fw, 1);
+    fw_tick(&fw);
+    CHECK_EQ(fw_range_due(&fw), 1u); /* the first measurement on the next tick */
+    CHECK_EQ(fw_range_due(&fw), 0u); /* taken */
+    for (k = 0; k < 50u; k++) {
+        fw_tick(&fw);
+        due += fw_range_due(&fw);
+        if (k % FW_RANGE_PERIOD_TICKS != FW_RANGE_PERIOD_TICKS - 1u) {
+            CHECK_EQ(fw.range_due, 0u);
+        }
+    }
+    CHECK_EQ(due, 50u / FW_RANGE_PERIOD_TICKS); /* 10 Hz at 50 Hz ticks */
+    fw_range_enable(&fw, 0);
+    ticks(&fw, 20);
+    CHECK_EQ(fw_range_due(&fw), 0u);
+}
+
+/* one full measurement as main_msp430.c runs it: due -> result of the last -> trigger */
+static void range_cycle(fw_t *fw, uint16_t echo_us)
+{
+    unsigned k;
+    for (k = 0; k < 2u * FW_RANGE_PERIOD_TICKS; k++) {
+        fw_tick(fw);
+        if (fw_range_due(fw)) {
+            if (fw->range_measuring) {
+                fw_range_result(fw, echo_us);
+            }
+            fw_range_started(fw);
+            return;
+        }
+    }
+}
+
+static void test_range_results_in_v2_mode_are_sent_as_range_frames_with_the_trigger_tick(void)
+{
+    fw_t fw;
+    uint8_t tx[FW_TX_SIZE];
+    uint8_t n;
+    uint16_t trigger_tick;
+    link_t host;
+    fw_init(&fw, 3);
+    send_frame(&fw, V2_TYPE_PING, 1, NULL, 0); /* into v2 mode */
+    (void)fw_take_tx(&fw, tx, sizeof tx);
+    fw_range_enable(&fw, 1);
+    range_cycle(&fw, 0); /* the first trigger: nothing to report yet */
+    CHECK_EQ(fw.tx_len, 0u);
+    trigger_tick = fw.range_trigger_tick;
+    range_cycle(&fw, 2041); /* its echo: 350 mm */
+    CHECK_EQ(fw.range_mm, 350u);
+    n = fw_take_tx(&fw, tx, sizeof tx);
+    CHECK(n > 0u);
+    link_init(&host);
+    feed_link_expecting_no_v1(&host, tx, n, "range");
+    CHECK_HELPER();
+    CHECK_EQ(host.bad_frames, 1u); /* well formed, but not for a board */
+    CHECK_EQ(host.body[0], V2_RANGE_LEN);
+    CHECK_EQ(host.body[1], V2_TYPE_RANGE);
+    CHECK_EQ(host.body[2], 0u); /* the board's own RANGE count */
+    CHECK_EQ(v2_get_u16(&host.body[3]), 350u);
+    CHECK_EQ(v2_get_u16(&host.body[5]), trigger_tick);
+    CHECK_EQ(fw.range_trigger_tick, (uint16_t)(trigger_tick + FW_RANGE_PERIOD_TICKS));
+    range_cycle(&fw, 0); /* no echo */
+    CHECK_EQ(fw.range_mm, RANGE_NO_ECHO);
+    n = fw_take_tx(&fw, tx, sizeof tx);
+    link_init(&host);
+    feed_link_expecting_no_v1(&host, tx, n, "no echo");
+    CHECK_HELPER();
+    CHECK_EQ(host.body[2], 1u); /* seq counts up */
+    CHECK_EQ(v2_get_u16(&host.body[3]), RANGE_NO_ECHO);
+}
+
+static void test_range_results_in_v1_mode_are_kept_but_never_sent(void)
+{
+    fw_t fw;
+    static const uint8_t v1_home[] = {0xFB, 0x00, 0xFC, 0x5A, 0xFD, 0x5A};
+    fw_init(&fw, 3);
+    feed(&fw, v1_home, sizeof v1_home);
+    fw_range_enable(&fw, 1);
+    range_cycle(&fw, 0);
+    range_cycle(&fw, 2041);
+    range_cycle(&fw, 5831);
+    CHECK_EQ(fw.range_mm, 1000u);
+    CHECK_EQ(fw.tx_len, 0u); /* a v1 host expects no bytes from the board */
+    CHECK_EQ(fw.pulse_us[0], 900u);
+}
+
+static void test_range_result_without_a_running_measurement_is_ignored(void)
+{
+    fw_t fw;
+    fw_init(&fw, 3);
+    send_frame(&fw, V2_TYPE_PING, 1, NULL, 0);
+    fw.tx_len = 0;
+    fw_range_enable(&fw, 1);
+    fw_range_result(&fw, 2041);
+    CHECK_EQ(fw.tx_len, 0u);
+    CHECK_EQ(fw.range_mm, RANGE_NO_ECHO);
+    CHECK_EQ(fw.range_seq, 0u);
+}
+
+static void test_range_frame_that_does_not_fit_is_skipped_whole_and_its_seq_still_counts(void)
+{
+    fw_t fw;
+    unsigned k;
+    uint8_t before;
+    fw_init(&fw, 8);
+    for (k = 0; k < 10u; k++) {
+        send_frame(&fw, V2_TYPE_PING, (uint8_t)k, NULL, 0); /* fill the queue with STATUS */
+    }
+    before = fw.tx_len;
+    fw_range_enable(&fw, 1);
+    range_cycle(&fw, 0);
+    range_cycle(&fw, 2041);
+    CHECK(fw.tx_len <= FW_TX_SIZE);
+    if (before + 12u > FW_TX_SIZE) {
+        CHECK_EQ(fw.tx_len, before); /* nothing torn onto the end */
+    }
+    CHECK_EQ(fw.range_seq, 1u); /* the host sees the gap in the SEQ */
+}
+
+static void test_range_reporting_changes_no_pulse_and_feeds_no_watchdog(void)
+{
+    fw_t fw;
+    static const uint16_t a[3] = {9000, 9000, 9000};
+    unsigned k;
+    fw_init(&fw, 3);
+    send_set_joints(&fw, 1, a, 3);
+    fw_range_enable(&fw, 1);
+    for (k = 0; k < 6u; k++) {
+        range_cycle(&fw, 2041);
+    }
+    CHECK_EQ(fw.pulse_us[0], 1800u);
+    CHECK_EQ(fw_flags(&fw) & V2_FLAG_WATCHDOG, V2_FLAG_WATCHDOG); /* 30 silent ticks */
+}
+
 /* ---- fuzz ------------------------------------------------------------------------ */
 
 static void test_one_million_random_bytes_never_crash_or_leave_the_pulse_range(void)
@@ -1216,6 +1422,15 @@ static const unit_test_t FW_TESTS[] = {
     T(test_status_reports_one_pulse_per_configured_joint),
     T(test_counters_wrap_modulo_65536),
     T(test_tx_queue_skips_a_reply_that_does_not_fit_instead_of_truncating_it),
+    T(test_range_echo_widths_from_vectors_json_convert_to_their_distances),
+    T(test_range_every_echo_width_gives_no_reading_or_a_distance_within_20_to_4000_mm),
+    T(test_range_frame_vectors_encode_to_their_wire_bytes_and_a_board_refuses_them),
+    T(test_range_is_due_every_5_ticks_only_while_enabled),
+    T(test_range_results_in_v2_mode_are_sent_as_range_frames_with_the_trigger_tick),
+    T(test_range_results_in_v1_mode_are_kept_but_never_sent),
+    T(test_range_result_without_a_running_measurement_is_ignored),
+    T(test_range_frame_that_does_not_fit_is_skipped_whole_and_its_seq_still_counts),
+    T(test_range_reporting_changes_no_pulse_and_feeds_no_watchdog),
     T(test_one_million_random_bytes_never_crash_or_leave_the_pulse_range),
     T(test_random_valid_and_corrupted_frames_keep_pulses_in_range_and_speed_limited),
 };

@@ -18,6 +18,13 @@ STUB_DEF8(P1OUT);
 STUB_DEF8(P1DIR);
 STUB_DEF8(P1SEL0);
 STUB_DEF8(P1SEL1);
+STUB_DEF8(P1IN);
+STUB_DEF8(P1IES);
+STUB_DEF8(P1IE);
+STUB_DEF8(P1IFG);
+STUB_DEF16(P1IV);
+STUB_DEF8(P3OUT);
+STUB_DEF8(P3DIR);
 STUB_DEF8(P2SEL0);
 STUB_DEF8(P2SEL1);
 STUB_DEF16(UCA0CTLW0);
@@ -27,6 +34,8 @@ STUB_DEF16(UCA0IE);
 STUB_DEF16(UCA0IV);
 STUB_DEF16(UCA0RXBUF);
 STUB_DEF16(UCA0TXBUF);
+STUB_DEF16(TA0CTL);
+STUB_DEF16(TA0R);
 STUB_DEF16(TA1CTL);
 STUB_DEF16(TA1CCTL0);
 STUB_DEF16(TA1CCTL2);
@@ -62,9 +71,19 @@ void __bic_SR_register_on_exit(unsigned int bits)
     }
 }
 
+/* __delay_cycles is where the trigger pulse is high: record the pin and the length */
+static unsigned long stub_delay_cycles;
+static int stub_trig_high_during_delay;
+void __delay_cycles(unsigned long cycles)
+{
+    stub_delay_cycles += cycles;
+    stub_trig_high_during_delay = (P3OUT & BIT0) != 0;
+}
+
 /* the interrupt handlers, plain functions in the stub build */
 void hal_timer1_a0_isr(void);
 void hal_uart_isr(void);
+void hal_port1_isr(void);
 
 static void reset_stub(void)
 {
@@ -80,7 +99,22 @@ static void reset_stub(void)
     stub_gie = 0;
     stub_sleeps = 0;
     stub_wakeups = 0;
+    P3OUT = 0xFF;
+    P3DIR = 0;
+    P1IE = 0;
+    P1IES = 0;
+    P1IFG = 0;
+    stub_delay_cycles = 0;
+    stub_trig_high_during_delay = 0;
     hal_init();
+}
+
+/* an edge on the echo pin (P1.2) when the free-running timer reads t */
+static void echo_edge(uint16_t t)
+{
+    TA0R = t;
+    P1IV = 0x06u; /* P1IFG2 */
+    hal_port1_isr();
 }
 
 static void rx_interrupt(uint8_t byte)
@@ -232,6 +266,88 @@ static void test_hal_sleeps_only_when_no_byte_or_tick_is_waiting(void)
     CHECK_EQ(stub_sleeps, 2);
 }
 
+static void test_hal_init_sets_up_the_range_sensor_pins_and_a_free_running_1_mhz_timer(void)
+{
+    reset_stub();
+    CHECK_EQ(P3DIR & BIT0, BIT0);  /* TRIG: output */
+    CHECK_EQ(P3OUT & BIT0, 0u);    /* ... held low */
+    CHECK_EQ(P1DIR & BIT2, 0u);    /* ECHO: input */
+    CHECK_EQ(P1IE & BIT2, 0u);     /* no edge interrupts before a measurement */
+    CHECK_EQ(TA0CTL, TASSEL__SMCLK | ID__8 | MC__CONTINUOUS | TACLR);
+}
+
+static void test_hal_range_start_sends_a_trigger_pulse_of_at_least_10_us(void)
+{
+    reset_stub();
+    hal_range_start();
+    CHECK_EQ(stub_trig_high_during_delay, 1);
+    CHECK(stub_delay_cycles >= 80u); /* 10 us at 8 MHz */
+    CHECK_EQ(P3OUT & BIT0, 0u);      /* and low again */
+    CHECK_EQ(P1IE & BIT2, BIT2);     /* echo edges armed ... */
+    CHECK_EQ(P1IES & BIT2, 0u);      /* ... rising first */
+}
+
+static void test_hal_range_measures_the_echo_between_its_rising_and_falling_edge(void)
+{
+    uint16_t echo = 0;
+    reset_stub();
+    hal_range_start();
+    echo_edge(1000);
+    CHECK_EQ(P1IES & BIT2, BIT2); /* now waiting for the falling edge */
+    CHECK_EQ(hal_range_take(&echo), 0u); /* still high: no result yet */
+    hal_range_start();
+    echo_edge(1000);
+    echo_edge(3041);
+    CHECK_EQ(hal_range_take(&echo), 1u);
+    CHECK_EQ(echo, 2041u);
+    CHECK_EQ(hal_range_take(&echo), 0u); /* taken once */
+}
+
+static void test_hal_range_echo_across_a_timer_wrap_is_measured_right(void)
+{
+    uint16_t echo = 0;
+    reset_stub();
+    hal_range_start();
+    echo_edge(65000u);
+    echo_edge(1500u);
+    CHECK_EQ(hal_range_take(&echo), 1u);
+    CHECK_EQ(echo, 2036u);
+}
+
+static void test_hal_range_clears_the_flag_that_switching_the_edge_may_raise(void)
+{
+    reset_stub();
+    hal_range_start();
+    P1IFG |= BIT2; /* as the hardware may when IES changes while the pin is high */
+    echo_edge(1000);
+    CHECK_EQ(P1IFG & BIT2, 0u);
+}
+
+static void test_hal_range_without_an_echo_reports_nothing(void)
+{
+    uint16_t echo = 1234;
+    reset_stub();
+    hal_range_start();
+    CHECK_EQ(hal_range_take(&echo), 0u);
+    CHECK_EQ(echo, 1234u); /* untouched */
+    CHECK_EQ(P1IE & BIT2, 0u); /* and no late edge can write a result any more */
+}
+
+static void test_hal_range_ignores_other_port_1_interrupts_and_edges_after_the_result(void)
+{
+    uint16_t echo = 0;
+    reset_stub();
+    hal_range_start();
+    TA0R = 500;
+    P1IV = 0x04u; /* P1.1, not ours */
+    hal_port1_isr();
+    echo_edge(1000);
+    echo_edge(2000);
+    echo_edge(9000); /* a stray edge after the fall */
+    CHECK_EQ(hal_range_take(&echo), 1u);
+    CHECK_EQ(echo, 1000u);
+}
+
 #define T(fn) {#fn, fn}
 const unit_test_t HAL_TESTS[] = {
     T(test_hal_init_sets_up_50_hz_pwm_with_1_us_steps_on_p1_3_p1_4_p1_5),
@@ -243,5 +359,12 @@ const unit_test_t HAL_TESTS[] = {
     T(test_hal_timer_interrupt_counts_ticks_and_loads_pulses_at_the_period_start),
     T(test_hal_zero_pulse_holds_the_output_low_instead_of_a_glitch),
     T(test_hal_sleeps_only_when_no_byte_or_tick_is_waiting),
+    T(test_hal_init_sets_up_the_range_sensor_pins_and_a_free_running_1_mhz_timer),
+    T(test_hal_range_start_sends_a_trigger_pulse_of_at_least_10_us),
+    T(test_hal_range_measures_the_echo_between_its_rising_and_falling_edge),
+    T(test_hal_range_echo_across_a_timer_wrap_is_measured_right),
+    T(test_hal_range_clears_the_flag_that_switching_the_edge_may_raise),
+    T(test_hal_range_without_an_echo_reports_nothing),
+    T(test_hal_range_ignores_other_port_1_interrupts_and_edges_after_the_result),
 };
 const unsigned HAL_TEST_COUNT = sizeof HAL_TESTS / sizeof HAL_TESTS[0];

@@ -61,6 +61,24 @@ typedef struct {
 
 typedef struct {
     const char *name;
+    uint16_t echo_us;
+    uint16_t distance_mm;
+} vec_range_echo_t;
+
+typedef struct {
+    const char *name;
+    uint8_t seq;
+    const uint8_t *payload;
+    uint8_t payload_len;
+    uint16_t crc;
+    const uint8_t *wire;
+    uint16_t wire_len;
+    uint16_t distance_mm;
+    uint16_t tick;
+} vec_range_frame_t;
+
+typedef struct {
+    const char *name;
     const uint8_t *wire;
     uint16_t len;
     uint16_t bad_frames;
@@ -136,7 +154,8 @@ class Emitter:
 def generate(doc: dict) -> str:
     _keys(
         doc,
-        {"about", "crc16_ccitt_false", "v1_streams", "v2_frames", "v2_rejected", "v2_scenarios"},
+        {"about", "crc16_ccitt_false", "v1_streams", "v2_frames", "v2_rejected", "v2_scenarios",
+         "range_echo", "v2_range_frames"},
         "top level",
     )
     em = Emitter()
@@ -262,9 +281,34 @@ def generate(doc: dict) -> str:
         )
     tables.append("static const vec_scenario_t VEC_SCENARIOS[] = {\n" + "\n".join(scen_rows) + "\n};")
 
+    rows = []
+    for i, v in enumerate(doc["range_echo"]):
+        where = f"range_echo[{i}] ({v.get('name')})"
+        _keys(v, {"name", "echo_us", "distance_mm"}, where)
+        echo, mm = int(v["echo_us"]), int(v["distance_mm"])
+        if not (0 <= echo <= 0xFFFF and 0 <= mm <= 0xFFFF):
+            raise VectorError(f"{where}: echo_us and distance_mm must fit a uint16")
+        rows.append(f"    {{{_c_string(v['name'])}, {echo}, {mm}}},")
+    tables.append("static const vec_range_echo_t VEC_RANGE_ECHO[] = {\n" + "\n".join(rows) + "\n};")
+
+    rows = []
+    for i, v in enumerate(doc["v2_range_frames"]):
+        where = f"v2_range_frames[{i}] ({v.get('name')})"
+        _keys(v, {"name", "seq", "payload_hex", "crc_hex", "wire_hex", "fields"}, where)
+        _keys(v["fields"], {"distance_mm", "tick"}, where + " fields")
+        payload = _hex(v["payload_hex"], where)
+        wire = _hex(v["wire_hex"], where)
+        rows.append(
+            f"    {{{_c_string(v['name'])}, {int(v['seq'])}, {em.bytes_array(payload)}, {len(payload)}, "
+            f"0x{int(v['crc_hex'], 16):04X}, {em.bytes_array(wire)}, {len(wire)}, "
+            f"{int(v['fields']['distance_mm'])}, {int(v['fields']['tick'])}}},"
+        )
+    tables.append("static const vec_range_frame_t VEC_RANGE_FRAMES[] = {\n" + "\n".join(rows) + "\n};")
+
     counts = "\n".join(
         f"#define {n}_COUNT (sizeof {n} / sizeof {n}[0])"
-        for n in ("VEC_CRC", "VEC_V1", "VEC_FRAMES", "VEC_REJECTED", "VEC_SCENARIOS")
+        for n in ("VEC_CRC", "VEC_V1", "VEC_FRAMES", "VEC_REJECTED", "VEC_SCENARIOS",
+                  "VEC_RANGE_ECHO", "VEC_RANGE_FRAMES")
     )
     return (
         PREAMBLE + "\n" + "\n".join(em.lines) + "\n\n" + "\n\n".join(tables) + "\n\n"

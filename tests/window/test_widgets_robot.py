@@ -26,6 +26,7 @@ def test_bridge_urls():
     assert bridge_url("v2", "/dev/ttyACM0") == "v2:/dev/ttyACM0"
     assert bridge_url("v1", "/dev/ttyUSB0") == "v1:/dev/ttyUSB0"
     assert bridge_url("v1", "loop://") == "loop://"
+    assert bridge_url("v2", "phidget://1234") == "phidget://1234"  # a Phidget board keeps its own URL
     assert bridge_url("sim", "whatever") == "sim://"
 
 

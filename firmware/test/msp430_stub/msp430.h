@@ -19,6 +19,13 @@ STUB_REG8(P1OUT);
 STUB_REG8(P1DIR);
 STUB_REG8(P1SEL0);
 STUB_REG8(P1SEL1);
+STUB_REG8(P1IN);
+STUB_REG8(P1IES);
+STUB_REG8(P1IE);
+STUB_REG8(P1IFG);
+STUB_REG16(P1IV);
+STUB_REG8(P3OUT);
+STUB_REG8(P3DIR);
 STUB_REG8(P2SEL0);
 STUB_REG8(P2SEL1);
 STUB_REG16(UCA0CTLW0);
@@ -28,6 +35,8 @@ STUB_REG16(UCA0IE);
 STUB_REG16(UCA0IV);
 STUB_REG16(UCA0RXBUF);
 STUB_REG16(UCA0TXBUF);
+STUB_REG16(TA0CTL);
+STUB_REG16(TA0R);
 STUB_REG16(TA1CTL);
 STUB_REG16(TA1CCTL0);
 STUB_REG16(TA1CCTL2);
@@ -78,6 +87,7 @@ STUB_REG16(TB0CCR2);
 #define TBSSEL__SMCLK 0x0200u
 #define ID__8 0x00C0u
 #define MC__UP 0x0010u
+#define MC__CONTINUOUS 0x0020u
 #define TACLR 0x0004u
 #define TBCLR 0x0004u
 
@@ -86,6 +96,7 @@ STUB_REG16(TB0CCR2);
 
 #define TIMER1_A0_VECTOR 40
 #define USCI_A0_VECTOR 41
+#define PORT1_VECTOR 39
 
 extern int stub_gie;        /* 1 while interrupts are enabled */
 extern int stub_sleeps;     /* times the CPU entered LPM0 */
@@ -95,5 +106,6 @@ void __disable_interrupt(void);
 void __no_operation(void);
 void __bis_SR_register(unsigned int bits);
 void __bic_SR_register_on_exit(unsigned int bits);
+void __delay_cycles(unsigned long cycles); /* the stub records the trigger pin's pulse */
 
 #endif
