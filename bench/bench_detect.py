@@ -509,6 +509,37 @@ def onnx_backend_rows(frames, path: Path, what: str) -> list[dict]:
     return out
 
 
+MODEL_ACCURACY = "desk model: one 640x480 view, mAP@0.5 on unseen renders"
+
+
+def model_accuracy_rows(n_images: int) -> list[dict]:
+    """The shipped model's accuracy (VOC mAP@0.5 on ``n_images`` held-out renders, scenes the
+    training never used) with its ms per view through cv2.dnn; [] when no model ships."""
+    if not SHIPPED_MODEL.is_file():
+        print(f"bench: no {SHIPPED_MODEL.name}: model accuracy row skipped", file=sys.stderr)
+        return []
+    from core.detect.onnx_yolo import OnnxYoloDetector
+    from core.sim.dataset import CLASSES, score_detector
+
+    class Timed:
+        def __init__(self, inner):
+            self.inner, self.ms = inner, []
+
+        def detect(self, image):
+            t0 = time.perf_counter()
+            found = self.inner.detect(image)
+            self.ms.append((time.perf_counter() - t0) * 1e3)
+            return found
+
+    # the detector at a low threshold, as VOC scores it (precision/recall read at 0.25)
+    detector = Timed(OnnxYoloDetector(SHIPPED_MODEL, backend="cv2", score_threshold=0.05))
+    classes = [c for c in detector.inner.names if c in CLASSES]
+    scores, _ = score_detector(detector, n_images, classes=classes, score_threshold=0.25)
+    per_class = " ".join(f"{name} {c.ap:.2f}" for name, c in scores.classes.items() if c.n_truth)
+    return [{"name": MODEL_ACCURACY, "unit": "ms", "samples": detector.ms, "baseline": BASELINE,
+             "extra": f"mAP@0.5 {scores.mean_ap:.3f} on {scores.n_images} unseen renders ({per_class})"}]
+
+
 def rows(quick: bool = False) -> list[dict]:
     """Every row of this file: ``quick`` renders 6 frames (ONNX on 3), else 60 (ONNX on 12)."""
     n = 6 if quick else 60
@@ -522,6 +553,7 @@ def rows(quick: bool = False) -> list[dict]:
         out += tracker_rows(frames)
         if path is not None:
             out += onnx_backend_rows(frames[:onnx_frames], path, what)
+    out += model_accuracy_rows(10 if quick else 200)
     return out
 
 
