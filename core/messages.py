@@ -119,6 +119,7 @@ class TargetMode(str, Enum):
     LISSAJOUS = "lissajous"  # trajectory generator
     CUPS = "cups"  # point at the cup hiding the ball (the original game)
     OBJECT = "object"  # follow a marker-less object (by track id, or by label / class)
+    TELEOP = "teleop"  # follow the user's hand (gestures, a calibrated hand volume mapped into the workspace)
 
 
 @dataclass(frozen=True)
@@ -134,6 +135,9 @@ class Goal:
     note: str = ""
     orientation_rpy: Optional[tuple[float, float, float]] = None  # tool roll, pitch, yaw (rad), 6-DOF arms
     grip_m: Optional[float] = None  # gripper opening per finger (m), arms with a gripper
+    # joint-space jogging: go to these joint values (rad or m, kinematic) instead of solving IK
+    # for base_p_target (safety clamps apply as to every command)
+    joint_target: Optional[tuple[float, ...]] = None
 
 
 @dataclass(frozen=True)

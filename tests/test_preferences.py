@@ -187,7 +187,7 @@ height = 700
 """)
     prefs, messages = load_preferences()
     assert messages == [
-        f"{path}: target.mode = 'dance' is not allowed (allowed: manual, follow, lissajous, cups, object) — using the default; {FIX}",
+        f"{path}: target.mode = 'dance' is not allowed (allowed: manual, follow, lissajous, cups, object, teleop) — using the default; {FIX}",
         f"{path}: target.follow_id = 5000 is outside the allowed range 0…1023 — using the default; {FIX}",
         (f"{path}: lissajous.amplitude = [0.9, 0.03, 0.03] is not allowed (lissajous.amplitude_x = 0.9 is outside "
          f"the allowed range 0.0…0.5) — using the default; {FIX}"),

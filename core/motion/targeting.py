@@ -663,6 +663,9 @@ class Targeter:
                 return self._goal_for_marker(self.follow_id, result, mode, t, source_t)
             if mode is TargetMode.OBJECT:
                 return self._goal_for_object(result, mode, t, source_t)
+            if mode is TargetMode.TELEOP:  # no hand source yet: hold
+                return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                            note="teleop: no hand source — holding")
             # cups game
             self._update_ball_cup(result)
             if self.ball_cup_id is None:
