@@ -62,10 +62,12 @@ HSV_SHAPE = (
     _Slider("min_area_px", "Min area (px²)", 0, 5000, 10),
 )
 CIRCLE_SLIDERS = (
-    _Slider("dp", "dp", 1.0, 4.0, 0.1, 1),
-    _Slider("min_dist_px", "Min distance (px)", 1, 400),
+    _Slider("min_aspect", "Roundness (minor/major)", 0.05, 1.0, 0.05, 2),
+    _Slider("min_score", "Edge support", 0.0, 1.0, 0.01, 2),
     _Slider("param1", "param1 (edges)", 1, 500),
-    _Slider("param2", "param2 (votes)", 1, 200),
+    _Slider("dp", "dp (Hough)", 1.0, 4.0, 0.1, 1),
+    _Slider("min_dist_px", "Min distance (px, Hough)", 1, 400),
+    _Slider("param2", "param2 (votes, Hough)", 1, 200),
     _Slider("min_radius_px", "Min radius (px)", 0, 200),
     _Slider("max_radius_px", "Max radius (px, 0 = any)", 0, 400),
 )

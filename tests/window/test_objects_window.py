@@ -189,6 +189,11 @@ def test_switching_detectors_on_and_off(qtbot, window):
     assert options["min_radius_px"] == options["max_radius_px"] == 100
     qtbot.waitUntil(lambda: window.workers.perception.object_detectors()[0].params.max_radius_px == 100,
                     timeout=TIMEOUT_MS)
+    # the ellipse finder's own settings (round tops seen at an angle)
+    panel.circle_sliders["min_aspect"].slider.setValue(80)  # hundredths: 0.80
+    assert panel.circle_params.min_aspect == pytest.approx(0.8)
+    qtbot.waitUntil(lambda: window.workers.perception.object_detectors()[0].params.min_aspect
+                    == pytest.approx(0.8), timeout=TIMEOUT_MS)
 
 
 # --- tap to pick a colour -----------------------------------------------------------------------
