@@ -60,6 +60,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-skew-compensation", action="store_true",
                    help="with --detector: triangulate objects as seen, without bringing the right view to the "
                         "left view's instant (to measure what unsynchronised webcams cost)")
+    p.add_argument("--teleop", default=None, metavar="SOURCE",
+                   help="drive the arm by hand: marker:ID (a wristband marker), hsv:COLOUR (a glove, with "
+                        "--detector hsv) or pose:PATH.onnx (a body pose model); calibrate by holding still 1 s "
+                        "at two opposite corners (default with --scenario teleop: marker:<first marker id>)")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -144,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         follow_object=args.follow_object, object_intercept=not args.no_intercept,
         compensate_skew=not args.no_skew_compensation, object_roi_search=args.object_roi,
         object_tracker=args.object_tracker, object_detect_every=args.object_detect_every,
+        teleop_source=args.teleop,
     )
     try:
         options.validate()

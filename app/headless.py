@@ -43,6 +43,8 @@ FOLLOW_REACH_TOL_M = 0.01  # object following is scored while the true aim is wi
 FOLLOW_ON_AIM_M = 0.01  # … from the first time the tool came this near its true aim (not the sprint there)
 REACHED_M = 0.005  # time_to_reach_stopped: the tool within this of the approach's end
 ARRIVAL_WINDOW_S = 0.06  # arrival speed: tool displacement over this window (three 50 Hz ticks) / its length
+TELEOP_SETTLE_S = 0.5  # teleop tracking is scored from this long after (re)entering FOLLOWING (the sprint there)
+TELEOP_GESTURES = ("corner", "calibrate", "rejected", "end")  # the gesture events the JSON lists
 
 
 def check_duration(duration_s) -> float:
@@ -145,6 +147,18 @@ class RunMetrics:
     object_approaches: int = 0  # cubic approaches planned (stops and re-plans)
     arrival_speed_mm_s: list = field(default_factory=list)  # tool speed at the end of each approach
     time_to_reach_stopped_s: list = field(default_factory=list)  # stopped event -> tool within REACHED_M
+    # teleoperation (TargetMode.TELEOP with a teleop controller; ``teleop`` is True then), see teleop_summary
+    teleop: bool = False
+    teleop_tracking_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 10))
+    teleop_target_error_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 11))
+    teleop_speed_limited_samples: int = 0  # tracking samples skipped: the true mapped target outran the limit
+    teleop_hold_command_mm_max: float = 0.0  # commands while holding: max tool displacement they ask for
+    teleop_hold_tool_mm_max: float = 0.0  # the tool's drift while holding (finishing its last step included)
+    teleop_hold_commands: int = 0
+    teleop_valid_goals_after_end: int = 0
+    teleop_corner_error_mm: list = field(default_factory=list)  # calibrated hand box corners vs the true ones
+    gesture_events: list = field(default_factory=list)  # {event, t_detected, t_true}
+    teleop_state_s: dict = field(default_factory=dict)
 
     def object_error(self, kind: str) -> Reservoir:
         """The error reservoir of one kind of object (created on first use, its own seed)."""
@@ -221,6 +235,43 @@ class RunMetrics:
             "bridge_disconnects": self.bridge_disconnects,
             "disconnected_s": r(self.disconnected_s),
             **self.object_summary(),
+            **self.teleop_summary(),
+        }
+
+    def teleop_summary(self) -> dict:
+        """The teleoperation part of the JSON (empty unless TELEOP mode drives the arm).
+
+        ``teleop_tracking_mm_p50/p95``: the tool (FK of the measured joints, at each control step)
+        against the mapped TRUE hand target — the true wristband position (the frame's truth carried
+        to the step's time with its true velocity) through the calibrated mapping (without its dead
+        zone, smoothing and speed limit) — while FOLLOWING, TELEOP_SETTLE_S after entering it, with
+        the band visible in both views; samples whose true mapped target moved faster than the
+        mapping's speed limit are left out (``teleop_speed_limited_samples``: by design the arm lags
+        there). ``teleop_target_error_mm_p50``: the goal handed to the control step vs the mapped
+        true hand at the frame's time (perception + filtering alone). ``teleop_hold_*``: while
+        HOLDING or ENDED, how far the commands ask the tool to move from where it was commanded when
+        the hold began (0: no command moves it), and how far the tool drifts.
+        """
+        if not self.teleop:
+            return {}
+
+        def r(v, nd=3):
+            return None if v is None else round(v, nd)
+
+        return {
+            "teleop_tracking_mm_p50": r(percentile(self.teleop_tracking_mm, 50)),
+            "teleop_tracking_mm_p95": r(percentile(self.teleop_tracking_mm, 95)),
+            "teleop_tracking_samples": self.teleop_tracking_mm.seen,
+            "teleop_speed_limited_samples": self.teleop_speed_limited_samples,
+            "teleop_target_error_mm_p50": r(percentile(self.teleop_target_error_mm, 50)),
+            "teleop_target_error_mm_p95": r(percentile(self.teleop_target_error_mm, 95)),
+            "teleop_corner_error_mm": [r(v) for v in self.teleop_corner_error_mm],
+            "teleop_hold_commands": self.teleop_hold_commands,
+            "teleop_hold_command_mm_max": r(self.teleop_hold_command_mm_max),
+            "teleop_hold_tool_mm_max": r(self.teleop_hold_tool_mm_max),
+            "teleop_valid_goals_after_end": self.teleop_valid_goals_after_end,
+            "gesture_events": list(self.gesture_events),
+            "teleop_state_s": {k: r(v, 2) for k, v in self.teleop_state_s.items()},
         }
 
 
@@ -278,6 +329,14 @@ class HeadlessRunner:
         self._approach_seen = 0
         self._approach_info: Optional[tuple] = None  # (number, t0, t_end, goal) of the latest approach
         self._last_result = None
+        # teleoperation: the hand's truth, the state at the last step, where the hold began
+        self.metrics.teleop = session.targeter.mode is TargetMode.TELEOP and session.targeter.teleop is not None
+        self._teleop_truth: Optional[tuple] = None  # (t, band position, velocity, visible in both views)
+        self._teleop_state = ""
+        self._teleop_following_since: Optional[float] = None
+        self._teleop_hold_ref: Optional[tuple] = None  # (commanded tool point, measured tool point) at hold start
+        self._teleop_last_cmd_p: Optional[np.ndarray] = None
+        self._teleop_events_seen = 0
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
@@ -327,6 +386,8 @@ class HeadlessRunner:
                     self._score_objects(frame, objects)
                 if m.following:
                     self._note_followed(frame)
+                if m.teleop:
+                    self._note_teleop(frame)
                 schedule.goal_arrived(clock.now())  # a new perception result: step at once
                 # event-driven: this frame's step now; tick-driven (or real cameras): any ticks due
                 while schedule.due(clock.now()):
@@ -400,6 +461,8 @@ class HeadlessRunner:
         if self.recorder is not None:
             self.recorder.state(state)
         self._score_reach(cmd, state)
+        if m.teleop:
+            self._score_teleop(cmd, state, s.clock.now())
         if m.following and state is not None:
             self._score_follow(state, s.clock.now())
 
@@ -599,6 +662,91 @@ class HeadlessRunner:
             if not self._follow_on_aim:
                 return
         m.object_follow_error_mm.append(error * 1e3)
+
+    def _teleop_scene(self):
+        """(scenario, scenario time offset) of a simulated teleop desk, or (None, 0)."""
+        desk = getattr(self.s.camera, "desk", None)
+        scenario = getattr(desk, "scenario_object", None)
+        if scenario is None or not hasattr(scenario, "gesture_times"):
+            return None, 0.0
+        return scenario, float(getattr(self.s.camera, "_t0", 0.0))
+
+    def _note_teleop(self, frame) -> None:
+        """Per frame: the hand's truth (for the step's tracking error), the goal vs the mapped truth,
+        new gesture events (with their true times), goals after the end."""
+        s, m = self.s, self.metrics
+        teleop = s.targeter.teleop
+        status = s.targeter.teleop_status()
+        m.teleop_state_s = dict(status.state_s)
+        marker_id = getattr(getattr(teleop, "source", None), "marker_id", None)
+        truth = frame.truth
+        obj = None if truth is None or marker_id is None else truth.by_id().get(marker_id)
+        if obj is not None:
+            t = float(frame.t)
+            p = np.asarray(obj.base_p_centre, float)
+            prev = self._teleop_truth
+            v = np.zeros(3) if prev is None or t - prev[0] <= 1e-6 else (p - prev[1]) / (t - prev[0])
+            self._teleop_truth = (t, p, v, bool(obj.visible_left and obj.visible_right))
+        goal = self._goal
+        if status.state == "ended" and goal is not None and goal.valid:
+            m.teleop_valid_goals_after_end += 1
+        mapping = getattr(teleop, "mapping", None)  # a keyboard source has none
+        if (goal is not None and goal.valid and mapping is not None and self._teleop_truth is not None
+                and self._teleop_truth[3]):
+            true_target = mapping.map(self._teleop_truth[1])
+            m.teleop_target_error_mm.append(float(np.linalg.norm(np.asarray(goal.base_p_target) - true_target)) * 1e3)
+        scenario, t0 = self._teleop_scene()
+        true_times = scenario.gesture_times() if scenario is not None else {}
+        for ev in status.events[self._teleop_events_seen:]:
+            if ev.event not in TELEOP_GESTURES:
+                continue
+            t_true = true_times.get(ev.event)
+            m.gesture_events.append({"event": ev.event, "t_detected": round(ev.t - t0, 3),
+                                     "t_true": None if t_true is None else round(t_true, 3),
+                                     "message": ev.message})
+            if ev.event == "calibrate" and scenario is not None and status.hand_box is not None:
+                a, b = (np.asarray(c) for c in scenario.corners())
+                true_box = np.array([np.minimum(a, b), np.maximum(a, b)])
+                got = np.array([status.hand_box.lo, status.hand_box.hi])
+                m.teleop_corner_error_mm = [float(np.linalg.norm(got[i] - true_box[i])) * 1e3 for i in range(2)]
+        self._teleop_events_seen = len(status.events)
+
+    def _score_teleop(self, cmd, state, now: float) -> None:
+        """Per control step: tracking error while following, and that holding commands keep still."""
+        s, m = self.s, self.metrics
+        teleop = s.targeter.teleop
+        status = teleop.status()
+        m.teleop_state_s = dict(status.state_s)
+        cmd_p = np.asarray(s.kinematics.fk(cmd.q), float)
+        tool = None if state is None else np.asarray(s.kinematics.fk(state.q), float)
+        if status.state != self._teleop_state:
+            if status.state == "following":
+                self._teleop_following_since = now
+            if status.state in ("holding", "ended") and self._teleop_state not in ("holding", "ended"):
+                ref_cmd = self._teleop_last_cmd_p if self._teleop_last_cmd_p is not None else cmd_p
+                self._teleop_hold_ref = (ref_cmd, tool)
+            self._teleop_state = status.state
+        if status.state in ("holding", "ended") and self._teleop_hold_ref is not None:
+            ref_cmd, ref_tool = self._teleop_hold_ref
+            m.teleop_hold_commands += 1
+            m.teleop_hold_command_mm_max = max(m.teleop_hold_command_mm_max,
+                                               float(np.linalg.norm(cmd_p - ref_cmd)) * 1e3)
+            if tool is not None and ref_tool is not None:
+                m.teleop_hold_tool_mm_max = max(m.teleop_hold_tool_mm_max,
+                                                float(np.linalg.norm(tool - ref_tool)) * 1e3)
+        self._teleop_last_cmd_p = cmd_p
+        truth, mapping = self._teleop_truth, getattr(teleop, "mapping", None)
+        if (status.state != "following" or mapping is None or truth is None or not truth[3] or tool is None
+                or self._teleop_following_since is None or now - self._teleop_following_since < TELEOP_SETTLE_S):
+            return
+        t_truth, p_truth, v_truth, _ = truth
+        true_target = mapping.map(p_truth + v_truth * (now - t_truth))
+        # how fast the mapped true target moves: the hand's velocity through the map's per-axis scale
+        scale = mapping.target_box.extent / np.where(mapping.hand_box.extent > 0, mapping.hand_box.extent, 1.0)
+        if float(np.linalg.norm(v_truth * scale)) > mapping.params.max_speed_m_s:
+            m.teleop_speed_limited_samples += 1
+            return
+        m.teleop_tracking_mm.append(float(np.linalg.norm(tool - true_target)) * 1e3)
 
     def _score_reach(self, cmd, state) -> None:
         """Tool tip vs aimed point, once the arm has settled on a goal that stopped moving."""

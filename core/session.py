@@ -34,7 +34,7 @@ from core.vision.cameras import CameraSource, open_camera, parse_camera_spec
 from core.vision.markers import MarkersConfig, load_markers, markers_for_session
 from core.vision.perception import StereoMarkerPerception
 
-SCENARIOS = ("static", "cups", "wander", "objects", "panel")
+SCENARIOS = ("static", "cups", "wander", "objects", "panel", "teleop")
 MAX_SIM_SKEW_MS = 100.0  # --sim-skew-ms: 0…this
 
 
@@ -45,7 +45,7 @@ class SessionOptions:
     camera: str = "auto"  # auto | sim | IDX,IDX
     bridge: str = "sim://"  # sim:// | serial port | loop://
     robot: str = "desk_rrr"  # profile name or path
-    scenario: str = "static"  # static | cups | wander | objects (simulated desk)
+    scenario: str = "static"  # static | cups | wander | objects | panel | teleop (simulated desk)
     fps: float = 30.0  # camera frame rate
     simulated_clock: bool = False  # headless --fast: run on a simulated clock
     marker_ids: tuple[int, ...] = (23, 50)
@@ -75,6 +75,10 @@ class SessionOptions:
     # or a kind; needs ``detectors``. ``object_intercept`` False aims where it is, not where it will be
     follow_object: Optional[str] = None
     object_intercept: bool = True
+    # drive the arm by hand from the start (TargetMode.TELEOP): "marker:ID" (a wristband marker),
+    # "hsv:COLOUR" (a glove; needs --detector hsv) or "pose:PATH.onnx" (a body pose model); the
+    # teleop scenario uses "marker:<first marker id>" when this is None
+    teleop_source: Optional[str] = None
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
@@ -92,6 +96,17 @@ class SessionOptions:
             if not self.detectors:
                 raise ValueError(f"--follow-object {self.follow_object!r} needs a detector to see objects: "
                                  "add --detector hsv (or circles, desk, onnx:PATH)")
+        if self.teleop_source is not None:
+            from core.motion.teleop import parse_teleop_source
+
+            try:
+                kind, _ = parse_teleop_source(self.teleop_source)
+            except ValueError as exc:
+                raise ValueError(f"--teleop: {exc}") from None
+            if kind == "hsv" and not self.detectors:
+                raise ValueError(f"--teleop {self.teleop_source}: a glove is seen by the hsv detector — add --detector hsv")
+            if self.follow_object is not None:
+                raise ValueError("--teleop and --follow-object both choose what the arm follows: give one of them")
         if self.rig_offset is not None:
             check_rig_offset_option(self.rig_offset)
         parse_camera_spec(self.camera)
@@ -201,6 +216,16 @@ class DeskSession:
             targeter.set_object_follow_params(replace(targeter.follower.params, intercept=bool(options.object_intercept)))
             targeter.set_follow_object(str(options.follow_object).strip())
             targeter.set_mode(TargetMode.OBJECT)
+        teleop_source = options.teleop_source
+        if teleop_source is None and options.scenario == "teleop" and options.follow_object is None:
+            teleop_source = f"marker:{ids[0]}"
+        if teleop_source is not None:
+            from core.motion.teleop import TeleopController, make_hand_source, reachable_target_box
+
+            margin = float(getattr(getattr(profile, "workspace", None), "desk_margin_m", 0.0) or 0.0)
+            source = make_hand_source(teleop_source, calibration, base_T_camera)
+            targeter.set_teleop(TeleopController(source, reachable_target_box(kinematics, margin)))
+            targeter.set_mode(TargetMode.TELEOP)
         controller = ArmController(profile, kinematics)
         object_perception = None
         if options.detectors:  # "hsv" with its default colours, every detector with its defaults

@@ -2,7 +2,8 @@
 
 Modes (``TargetMode``): manual point, follow a marker id, the Lissajous generator, the
 cups-and-ball game of the original paper (point at the cup hiding the ball), and follow a
-marker-less object (``ObjectFollower``: intercept it while it moves, a cubic approach when it stops).
+marker-less object (``ObjectFollower``: intercept it while it moves, a cubic approach when it stops),
+and teleoperation (``set_teleop``: a ``core.motion.teleop.TeleopController`` maps the user's hand).
 Pointing at an object means a point ``standoff_m`` back towards the arm's base and ``hover_m``
 above it, so the arm shows the object without covering its marker from the cameras.
 """
@@ -538,6 +539,7 @@ class Targeter:
         self._seq = SequenceCounter()
         self.listeners: list[Callable[[], None]] = []
         self.follower = ObjectFollower(self.pointing, object_follow)  # OBJECT mode's state
+        self.teleop = None  # TELEOP mode's core.motion.teleop.TeleopController (set_teleop), None: hold
         self._last_mode = self.mode
 
     # --- setters (GUI thread) ---------------------------------------------------------------
@@ -611,6 +613,25 @@ class Targeter:
         with self._lock:
             self.follower.set_tool(base_p_tool)
 
+    @_user_input
+    def set_teleop(self, controller) -> None:
+        """The teleop controller TELEOP mode asks for its goal (``core.motion.teleop.TeleopController``:
+        ``goal(result, t) -> (point or None, note)``), or None (TELEOP holds)."""
+        with self._lock:
+            self.teleop = controller
+
+    def teleop_status(self):
+        """What TELEOP mode is doing (``TeleopStatus``), None without a teleop controller."""
+        with self._lock:
+            return None if self.teleop is None else self.teleop.status()
+
+    @_user_input
+    def restart_teleop(self) -> None:
+        """Teleop back to calibrating (after the end gesture, or to calibrate again)."""
+        with self._lock:
+            if self.teleop is not None:
+                self.teleop.restart()
+
     def object_follow_status(self) -> ObjectFollowStatus:
         """What OBJECT mode is doing (phase, followed id, stops, the current approach)."""
         with self._lock:
@@ -663,9 +684,8 @@ class Targeter:
                 return self._goal_for_marker(self.follow_id, result, mode, t, source_t)
             if mode is TargetMode.OBJECT:
                 return self._goal_for_object(result, mode, t, source_t)
-            if mode is TargetMode.TELEOP:  # no hand source yet: hold
-                return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
-                            note="teleop: no hand source — holding")
+            if mode is TargetMode.TELEOP:
+                return self._goal_for_teleop(result, mode, t, source_t)
             # cups game
             self._update_ball_cup(result)
             if self.ball_cup_id is None:
@@ -691,6 +711,17 @@ class Targeter:
         if p is None or not all(map(math.isfinite, p)):
             return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
                         note=note if p is None else f"{note} — position not finite, holding")
+        return Goal(self._seq.next(), t, as_point(p), mode, source_t, note=note)
+
+    def _goal_for_teleop(self, result, mode, t, source_t) -> Goal:
+        """TELEOP mode: the teleop controller's mapped hand target, or hold with its note."""
+        if self.teleop is None:  # no hand source: hold
+            return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                        note="teleop: no hand source — holding")
+        p, note = self.teleop.goal(result, t)
+        if p is None or not all(map(math.isfinite, p)):
+            return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
+                        note=note if p is None else f"{note} — target not finite, holding")
         return Goal(self._seq.next(), t, as_point(p), mode, source_t, note=note)
 
     def _update_ball_cup(self, result: Optional[PerceptionResult]) -> None:

@@ -49,6 +49,8 @@ from core.sim.scenarios import (
     Scenario,
     SceneState,
     Thing,
+    WRISTBAND_WIDTH_M,
+    Wristband,
     make_scenario,
     scenario_names,
 )
@@ -95,6 +97,7 @@ ARM_BASE_COLOUR = (58, 58, 62)
 ARM_TOOL_COLOUR = (0, 150, 255)  # orange tool tip
 HAND_COLOUR = (130, 148, 172)  # greyish skin
 HAND_DARK = (100, 116, 138)
+WRISTBAND_COLOUR = (60, 52, 48)  # the teleop hand's dark cloth band (its marker is printed on it)
 
 PANEL_METAL = 176  # brushed steel plate, grey level of its top before shading
 PANEL_SIDE_COLOUR = (150, 152, 156)
@@ -443,6 +446,34 @@ class _View:
         if np.any(sky):
             self.desk[sky] = WALL_COLOUR
 
+    @classmethod
+    def from_pose(cls, base_T_camera: np.ndarray, K: np.ndarray, size: tuple[int, int], seed: int,
+                  extent: tuple) -> "_View":
+        """A view from any camera pose (e.g. a camera on the arm's hand): ``base_T_camera`` (4x4,
+        OpenCV optical frame: z forward, x right, y down), intrinsics ``K`` (3x3), ``size`` (w, h),
+        the desk texture of ``extent`` = (x_range, y_range, m_per_px) (``desk_extent`` of a rig)."""
+        self = cls.__new__(cls)
+        self.side = "hand"
+        camera_T_base = np.linalg.inv(base_T_camera)
+        self.P = K @ camera_T_base[:3, :]
+        self.f = float(K[0, 0])
+        self.cam_pos = np.asarray(base_T_camera, dtype=float)[:3, 3].copy()
+        self.size = (int(size[0]), int(size[1]))
+        x_range, y_range, m = extent
+        tex = desk_texture(seed, x_range, y_range, m)
+        A = np.array([[m, 0.0, x_range[0] + 0.5 * m],
+                      [0.0, -m, y_range[1] - 0.5 * m],
+                      [0.0, 0.0, 1.0]])
+        self.desk = cv2.warpPerspective(tex, self.plane_homography(0.0) @ A, self.size, flags=cv2.INTER_LINEAR,
+                                        borderMode=cv2.BORDER_REFLECT)
+        w, h = self.size
+        ray_z = (np.asarray(base_T_camera, dtype=float)[:3, :3] @ np.linalg.inv(K))[2]
+        corners = np.array([[0.0, 0.0, 1.0], [w - 1.0, 0.0, 1.0], [0.0, h - 1.0, 1.0], [w - 1.0, h - 1.0, 1.0]])
+        if np.any(corners @ ray_z > -1e-3):  # (a camera looking down, the usual case, skips this)
+            uu, vv = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+            self.desk[ray_z[0] * uu + ray_z[1] * vv + ray_z[2] > -1e-3] = WALL_COLOUR
+        return self
+
     def plane_homography(self, z: float) -> np.ndarray:
         """Maps (X, Y, 1) on the horizontal plane at height z (robot_base) to image px."""
         P = self.P
@@ -512,6 +543,7 @@ class SimDesk:
         self._blur_ksize = (k, k)
         self._dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
         self._views = {side: _View(rig, side, self.seed) for side in SIDES}
+        self._extent: Optional[tuple] = None  # desk texture extent for render_camera (the rig's, made on first use)
         # the printed square: black marker + white quiet zone (m)
         self._paper_m = self.marker_size_m * (8 + 2 * MARKER_BORDER_CELLS) / 8
         # the cup's top must hold the marker (its corners stay a little inside the rim)
@@ -620,6 +652,8 @@ class SimDesk:
         """(x, y, z, yaw) of the marker centre on a card or cup, robot_base."""
         if isinstance(obj, Cup):
             return obj.x, obj.y, obj.lift + CUP_HEIGHT_M, obj.yaw
+        if isinstance(obj, Wristband):
+            return obj.x, obj.y, obj.z, obj.yaw
         return obj.x, obj.y, 0.0, obj.yaw
 
     @staticmethod
@@ -641,8 +675,9 @@ class SimDesk:
     def marker_corners(self, t: float) -> dict[int, np.ndarray]:
         """Each marker's black-square corners (4, 3) in robot_base at time t, in ArUco's order."""
         st = self.scene(t)
+        bands = tuple(h.band for h in st.hands if h.band is not None)
         return {o.marker_id: self._square(self._marker_pose(o), self.marker_size_m / 2)
-                for o in (*st.cards, *st.cups)}
+                for o in (*st.cards, *st.cups, *bands)}
 
     # -- layout: what to paint, per view ---------------------------------------------------
 
@@ -965,6 +1000,18 @@ class SimDesk:
         _, depth = view.project(np.array([[hand.x, hand.y, hand.z]]))
         return _Item(depth=float(depth[0]), shapes=shapes, lines=lines)
 
+    def _band_item(self, view: _View, band: Wristband, hand_depth: float) -> _Item:
+        """A teleop hand's wristband: a dark strip across the forearm and its marker, on top of the hand."""
+        pose = self._marker_pose(band)
+        half_u, half_v = 0.038, WRISTBAND_WIDTH_M / 2
+        strip = view.project_polygon(self._local_to_base(
+            pose, np.array([[-half_u, -half_v], [half_u, -half_v], [half_u, half_v], [-half_u, half_v]])))
+        marker, black, region = self._marker_parts(view, band, disc=False)
+        _, depth = view.project(np.array([pose[:3]]))
+        return _Item(depth=min(float(depth[0]), hand_depth - 1e-3),
+                     shapes=[] if strip is None else [_Shape(strip, WRISTBAND_COLOUR)], marker=marker,
+                     target=band.marker_id, target_region=region, target_corners=black)
+
     def _shadow_polygons(self, st: SceneState, arm: Optional[np.ndarray]) -> list:
         """Shadows cast on the desk (z = 0) by the lamp: a list of (M, 3) robot_base polygons."""
         drop = np.array([LIGHT[0] / LIGHT[2], LIGHT[1] / LIGHT[2], 1.0])
@@ -1077,6 +1124,8 @@ class SimDesk:
             item = self._hand_item(view, hand)
             if item is not None:
                 solid.append(item)
+                if hand.band is not None and (hand.band.marker_id, False) in self._textures:
+                    solid.append(self._band_item(view, hand.band, item.depth))
         solid.sort(key=lambda it: -it.depth)
         return flat + solid
 
@@ -1150,6 +1199,9 @@ class SimDesk:
                 entries.append((panel.button_truth_id(n), panel.button_centre(n), panel.button_label(n), "button"))
         for handle in st.handles:
             entries.append((handle.truth_id, handle.centre, handle.label, "handle"))
+        for hand in st.hands:  # a teleop hand's wristband: its marker's centre
+            if hand.band is not None:
+                entries.append((hand.band.marker_id, hand.band.centre, f"wristband {hand.band.marker_id}", "marker"))
         return entries
 
     def _truth(self, st: SceneState, layouts: dict) -> GroundTruth:
@@ -1368,6 +1420,42 @@ class SimDesk:
             layouts[side] = items = self._layout(view, st, arm)
             images.append(self._finish(self._draw(view, items, shadows3), t, i))
         return images[0], images[1], self._truth(st, layouts)
+
+    def render_camera(self, base_T_camera: np.ndarray, K: np.ndarray, size: tuple[int, int], t: float,
+                      boxes: bool = False, noise_index: int = 2,
+                      max_supersample: int = SUPERSAMPLE) -> tuple[np.ndarray, Optional[dict[int, "ImageBox"]]]:
+        """The scene at time t (s) seen by any camera: a BGR uint8 image, and with ``boxes`` the
+        visible pixel box of each object (as ``image_boxes``), else None.
+
+        The hook for cameras that are not the rig's (the eye-in-hand camera of ``core.sim.hand_camera``):
+        ``base_T_camera`` 4x4 in robot_base (OpenCV optical frame), ``K`` 3x3, ``size`` (w, h).
+        The arm itself is not drawn (a hand camera sees past its own hand); the same desk texture,
+        shading, blur and noise as the rig's views (noise seeded by (seed, t, ``noise_index``)).
+        ``max_supersample`` caps the textures' supersampling (a close camera sees the panel's
+        textures large: 2× instead of 4× halves a render's cost, edges stay anti-aliased).
+        """
+        T = np.asarray(base_T_camera, dtype=float)
+        Km = np.asarray(K, dtype=float)
+        if T.shape != (4, 4) or Km.shape != (3, 3) or not (np.all(np.isfinite(T)) and np.all(np.isfinite(Km))):
+            raise ValueError(f"render_camera needs a finite 4x4 base_T_camera and 3x3 K, got {T.shape} and {Km.shape}")
+        if self._extent is None:
+            self._extent = desk_extent(self.rig)
+        view = _View.from_pose(T, Km, size, self.seed, self._extent)
+        t = float(t)
+        st = self.scene(t)
+        items = self._layout(view, st, None)
+        cap = max(1, int(max_supersample))
+        for it in items:
+            if it.textures:
+                it.textures = [(tex, H, outline, min(S, cap)) for tex, H, outline, S in it.textures]
+            if it.marker is not None and cap < SUPERSAMPLE:
+                it.textures.insert(0, (self._textures[(it.marker[0], it.marker[3])], it.marker[1], it.marker[2], cap))
+                it.marker = None
+        image = self._finish(self._draw(view, items, self._shadow_polygons(st, None)), t, noise_index)
+        if not boxes:
+            return image, None
+        names = {key: (label, kind) for key, _, label, kind in self._truth_entries(st)}
+        return image, self._image_boxes(items, view.size, names)
 
     def stereo_frame(self, seq: int, t: float, arm_points: Optional[np.ndarray] = None) -> StereoFrame:
         """``render`` packed as a StereoFrame (capture time = t)."""

@@ -69,14 +69,54 @@ class Ball:
     y: float
 
 
+# the teleop scenario's wristband: a marker printed on a band round the forearm, face up
+WRISTBAND_V_M = -0.075  # band centre from the hand's origin along the fingers (m; negative: on the forearm)
+WRISTBAND_LIFT_M = 0.012  # the band's printed face is this far above the hand's plane (m)
+WRISTBAND_WIDTH_M = 0.062  # the band's width along the forearm (m)
+
+
+@dataclass(frozen=True)
+class Wristband:
+    """A marker on a wristband, lying face up on top of the forearm (the teleop hand source)."""
+
+    marker_id: int
+    x: float  # marker centre, robot_base (m)
+    y: float
+    z: float
+    yaw: float  # the hand's yaw (rad); the marker's top edge faces the fingers' side … rotated like the hand
+
+    @property
+    def centre(self) -> tuple[float, float, float]:
+        return (float(self.x), float(self.y), float(self.z))
+
+
 @dataclass(frozen=True)
 class Hand:
-    """A flat hand + forearm hovering over the desk, fingers pointing along ``yaw``."""
+    """A flat hand + forearm hovering over the desk, fingers pointing along ``yaw``; optionally
+    wearing a wristband with a marker (``band_marker_id``, the teleop scenario)."""
 
-    x: float  # palm centre, robot_base (m)
+    x: float  # hand origin (the knuckles' line, palm side), robot_base (m)
     y: float
     z: float = HAND_HEIGHT_M
     yaw: float = 0.0  # rad; 0: fingers towards +y, forearm towards the user (-y)
+    band_marker_id: Optional[int] = None  # a marker id on a wristband, or None (a bare hand)
+
+    @property
+    def band(self) -> Optional[Wristband]:
+        """The wristband (its marker centre and yaw), None for a bare hand."""
+        if self.band_marker_id is None:
+            return None
+        # fingers along (−sin yaw, cos yaw); the band sits WRISTBAND_V_M along them
+        fx, fy = -math.sin(self.yaw), math.cos(self.yaw)
+        return Wristband(int(self.band_marker_id), float(self.x + fx * WRISTBAND_V_M),
+                         float(self.y + fy * WRISTBAND_V_M), float(self.z + WRISTBAND_LIFT_M), float(self.yaw))
+
+
+def hand_for_band(band_p, yaw: float, band_marker_id: Optional[int]) -> Hand:
+    """The hand whose wristband marker centre is at ``band_p`` (robot_base, m)."""
+    fx, fy = -math.sin(yaw), math.cos(yaw)
+    x, y, z = (float(v) for v in band_p)
+    return Hand(x - fx * WRISTBAND_V_M, y - fy * WRISTBAND_V_M, z - WRISTBAND_LIFT_M, yaw, band_marker_id)
 
 
 @dataclass(frozen=True)
@@ -611,12 +651,164 @@ class PanelScenario(Scenario):
                           panels=(self.panel_at(t),), handles=(self._handle,))
 
 
+class TeleopScenario(Scenario):
+    """A user drives the arm by hand: a hand wearing a wristband with a marker (the first marker id)
+    moves along a recorded-looking path above the desk (smooth, human speeds, a small tremor).
+
+    The script (scenario time, s; ``gesture_times`` gives the gestures' true times):
+    - 0 … 1.5 the hand comes in from +x to CORNER_A; holds still there 1.5 s (the calibration
+      gesture's first corner: "still for 1 s" is complete at 2.5 s);
+    - 3.0 … 5.0 it moves to the opposite corner CORNER_B and holds still 1.5 s (the calibration is
+      complete at ``CALIBRATE_T`` = 6.0 s: the second second of stillness);
+    - 6.5 … 19.5 free motion inside the volume (sums of sines, peak ~7 cm/s), during which the other
+      hand hovers over the band (OCCLUDE_*: it comes in over 0.5 s, covers it for 1.2 s while the
+      band hand keeps moving, goes away): the hand is lost, the arm must hold;
+    - 19.5 … the hand goes to REST and holds still; from COVER_IN_T the other hand comes in and
+      covers the band from COVER_T on, for good (the end gesture, complete at ``END_T`` = COVER_T +
+      END_COVER_S: the band unseen for END_COVER_S after a still hand was covered).
+    The other marker ids become cards in out-of-the-way spots. Truth: the band's marker centre
+    (``band_centre``), its visibility (the marker id's ObjectTruth), the corners and gesture times.
+    """
+
+    name = "teleop"
+    YAW = math.pi / 2  # fingers towards −x, the forearm comes from +x (a user beside the arm)
+    ENTRY = (0.30, 0.21, 0.19)
+    CORNER_A = (-0.06, 0.17, 0.14)  # band centre at the two calibration corners (robot_base, m)
+    CORNER_B = (0.07, 0.25, 0.21)
+    REST = (0.0, 0.21, 0.17)
+    ENTER_S, HOLD_A_S, MOVE_AB_S, HOLD_B_S = 1.5, 1.5, 2.0, 1.5
+    STILL_S = 1.0  # stillness a corner needs (TeleopParams.still_hold_s)
+    FREE_T0, FREE_T1, BLEND_S = 6.5, 19.5, 1.5
+    WANDER_CENTRE = (0.005, 0.21, 0.175)
+    WANDER_AMPLITUDE = (0.055, 0.035, 0.03)  # m per axis (two sines each, 0.6 and 0.4 of it)
+    OCCLUDE_T, OCCLUDE_S, OTHER_IN_S = 12.0, 1.2, 0.5
+    COVER_IN_T = 20.6
+    END_COVER_S = 1.0  # TeleopParams.end_cover_s
+    OTHER_LIFT_M = 0.05  # the other hand hovers this far above the band
+    OTHER_FAR_X_M = 0.75  # where the other hand comes from (out of view)
+    TREMOR = ((0.00015, 8.3), (0.0001, 5.7))  # (amplitude m, frequency Hz): physiological tremor
+    VIEWPOINT = (0.0, 0.42, 0.45)  # the default rig's midpoint: the other hand sits on the line of sight
+    CARD_SPOTS = ((-0.125, 0.225), (-0.15, 0.05), (0.15, 0.05), (-0.20, 0.15))
+
+    def __init__(self, marker_ids: Sequence[int], seed: int = 0):
+        super().__init__(marker_ids, seed)
+        extra = self.marker_ids[1:]
+        if len(extra) > len(self.CARD_SPOTS):
+            raise ValueError(f"the teleop scenario has room for {len(self.CARD_SPOTS) + 1} markers, "
+                             f"got {len(self.marker_ids)}")
+        self.band_marker_id = self.marker_ids[0]
+        self._cards = tuple(Card(mid, *self.CARD_SPOTS[i], yaw=ObjectsScenario.CARD_YAWS[i])
+                            for i, mid in enumerate(extra))
+        rng = np.random.default_rng([self.seed & 0x7FFFFFFF, 1313])
+        self._freq = rng.uniform(0.06, 0.14, (3, 2))  # Hz
+        self._phase = rng.uniform(0.0, 2 * math.pi, (3, 2))
+        self._tremor_phase = rng.uniform(0.0, 2 * math.pi, (3, len(self.TREMOR)))
+        self.cover_t = self.COVER_IN_T + self.OTHER_IN_S
+
+    # --- the script ---------------------------------------------------------------------------
+    @property
+    def calibrate_t(self) -> float:
+        """When the calibration gesture is complete: the second corner held still STILL_S."""
+        return self.ENTER_S + self.HOLD_A_S + self.MOVE_AB_S + self.STILL_S
+
+    @property
+    def end_t(self) -> float:
+        """When the end gesture is complete: the band covered for END_COVER_S."""
+        return self.cover_t + self.END_COVER_S
+
+    def gesture_times(self) -> dict[str, float]:
+        """True times (scenario s) of the gestures: {"corner": first corner, "calibrate", "end"}."""
+        return {"corner": self.ENTER_S + self.STILL_S, "calibrate": self.calibrate_t, "end": self.end_t}
+
+    def corners(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The band's true positions during the two calibration holds (robot_base, m)."""
+        return self.CORNER_A, self.CORNER_B
+
+    def occlusion_window(self) -> tuple[float, float]:
+        """When the other hand is over (or coming to / leaving) the band during free motion."""
+        return (self.OCCLUDE_T - self.OTHER_IN_S, self.OCCLUDE_T + self.OCCLUDE_S + self.OTHER_IN_S)
+
+    def _wander(self, t: float) -> np.ndarray:
+        c = np.asarray(self.WANDER_CENTRE, float)
+        out = c.copy()
+        for axis in range(3):
+            a = self.WANDER_AMPLITUDE[axis]
+            for k, share in enumerate((0.6, 0.4)):
+                out[axis] += share * a * math.sin(2 * math.pi * self._freq[axis, k] * (t - self.FREE_T0)
+                                                  + self._phase[axis, k])
+        return out
+
+    def _path(self, t: float) -> np.ndarray:
+        """The band centre without tremor (robot_base, m)."""
+        a, b = np.asarray(self.CORNER_A), np.asarray(self.CORNER_B)
+        t1 = self.ENTER_S
+        t2 = t1 + self.HOLD_A_S
+        t3 = t2 + self.MOVE_AB_S
+        if t < t1:
+            return np.asarray(self.ENTRY) + (a - np.asarray(self.ENTRY)) * smooth_step(t / t1)
+        if t < t2:
+            return a
+        if t < t3:
+            return a + (b - a) * smooth_step((t - t2) / self.MOVE_AB_S)
+        if t < self.FREE_T0:
+            return b
+        if t < self.FREE_T1:
+            blend_in = smooth_step((t - self.FREE_T0) / self.BLEND_S)
+            blend_out = smooth_step((t - (self.FREE_T1 - self.BLEND_S)) / self.BLEND_S)
+            p = b + (self._wander(t) - b) * blend_in
+            return p + (np.asarray(self.REST) - p) * blend_out
+        return np.asarray(self.REST, float)
+
+    def _tremor(self, t: float) -> np.ndarray:
+        out = np.zeros(3)
+        for axis in range(3):
+            for k, (amp, f) in enumerate(self.TREMOR):
+                out[axis] += amp * math.sin(2 * math.pi * f * t + self._tremor_phase[axis, k])
+        return out
+
+    def band_centre(self, t: float) -> np.ndarray:
+        """The wristband marker's centre at time t (robot_base, m): the hand's truth point."""
+        return self._path(t) + self._tremor(t)
+
+    def hand_at(self, t: float) -> Hand:
+        """The hand wearing the band."""
+        return hand_for_band(self.band_centre(t), self.YAW, self.band_marker_id)
+
+    def other_hand_at(self, t: float) -> Optional[Hand]:
+        """The other (bare) hand: over the band during the occlusion, and for good from the cover on."""
+        in_s = self.OTHER_IN_S
+        if t >= self.COVER_IN_T:
+            come, go = smooth_step((t - self.COVER_IN_T) / in_s), 0.0
+        else:
+            t0 = self.OCCLUDE_T - in_s
+            t_go = self.OCCLUDE_T + self.OCCLUDE_S
+            if not t0 < t < t_go + in_s:
+                return None
+            come, go = smooth_step((t - t0) / in_s), smooth_step((t - t_go) / in_s)
+        band = self.band_centre(t)
+        eye = np.asarray(self.VIEWPOINT)
+        z = band[2] + self.OTHER_LIFT_M
+        cover = band + (z - band[2]) / (eye[2] - band[2]) * (eye - band)
+        # the palm's middle is 2.75 cm from the hand's origin along the fingers (−x at this yaw)
+        x0 = cover[0] + 0.0275
+        x = x0 + (self.OTHER_FAR_X_M - x0) * (1.0 - come + go)
+        return Hand(float(x), float(cover[1]), float(z), yaw=self.YAW)
+
+    def state(self, t: float) -> SceneState:
+        hands = [self.hand_at(t)]
+        other = self.other_hand_at(t)
+        if other is not None:
+            hands.append(other)
+        return SceneState(cards=self._cards, hands=tuple(hands))
+
+
 SCENARIOS: dict[str, type[Scenario]] = {
     "static": StaticScenario,
     "cups": CupsScenario,
     "wander": WanderScenario,
     "objects": ObjectsScenario,
     "panel": PanelScenario,
+    "teleop": TeleopScenario,
 }
 
 

@@ -54,8 +54,8 @@ def assert_close(actual, expected, tol, what):
 # ---------------------------------------------------------------------------------------------
 
 
-def test_scenario_names_list_static_cups_wander_objects_panel():
-    assert set(scenario_names()) == {"static", "cups", "wander", "objects", "panel"}
+def test_scenario_names_list_every_scenario():
+    assert set(scenario_names()) == {"static", "cups", "wander", "objects", "panel", "teleop"}
     assert set(SCENARIOS) == set(scenario_names())
 
 
