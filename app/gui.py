@@ -34,6 +34,7 @@ from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
 from core.detect.colour import colour_from_pixel
 from core.messages import TargetMode
+from core.motion.jog import JogSpace, Jogger, joint_display
 from core.motion.pick_place import PickPlaceSequence
 from core.vision.markers import default_markers
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
@@ -55,6 +56,7 @@ from widgets.detector_panel import DetectorPanel
 from widgets.device_controls import DeviceControlsPanel
 from widgets.estop import EStopButton, RearmButton
 from widgets.help_dialog import HelpDialog
+from widgets.jog_panel import JogPanel, is_text_field, jog_key_action
 from widgets.joint_readout import JointReadout
 from widgets.markers_table import MarkersTable
 from widgets.recordings_dialog import RecordingsDialog
@@ -74,6 +76,7 @@ FIT_DELAY_MS = 150  # after a show/move/resize: the window manager has framed th
 COMPACT_VIEW_PX = 420  # narrower camera views label markers by id and objects by id and name only
 PICK_TOLERANCE_HUE = 10  # "Pick colour": hue ± this (OpenCV's 0…179) around the tapped pixels
 NO_DETECTOR_HINT = "no object detector is on — switch one on in the Objects tab (e.g. hsv)"
+JOG_TICK_MS = 20  # a held jog key or button moves the target at 50 Hz (the control rate)
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -295,8 +298,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.detector_panel = DetectorPanel()  # marker-less objects: detectors and their settings
         self.detector_panel.sigDetectorsChanged.connect(self.on_detectors_changed)
         self.detector_panel.sigPickToggled.connect(self.on_pick_toggled)
-        pages += [(self.markers_table, "Markers"), (self.detector_panel, "Objects"), (self.camera_page, "Camera"),
-                  (self.stereo_panel, "Stereo"), (robot_page, "Robot")]
+        self._build_jog()
+        if self.pose_panel is not None:  # 6-DOF arms: jogging below the pose (eight tabs do not fit 800 px)
+            pages[-1] = (self._jog_with_pose(), "Pose")
+        else:
+            pages.append((self.jog_panel, "Jog"))
+        pages += [(self.markers_table, "Markers"), (self.detector_panel, "Objects"),
+                  (self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (robot_page, "Robot")]
         for widget, title in pages:
             # vertical-only and never narrower than its page, so the splitter leaves the panel
             # room for it (no sideways scrolling, no clipped buttons at 800x480)
@@ -496,6 +504,7 @@ class MainWindow(QtWidgets.QMainWindow):
         app = QtWidgets.QApplication.instance()
         if app is not None:  # a modal dialog takes the focus when it opens
             app.focusWindowChanged.connect(self.check_modal_dialog)
+            app.installEventFilter(self)  # jog keys, wherever the focus is in this window
 
     def stop(self) -> None:
         app = QtWidgets.QApplication.instance()
@@ -504,6 +513,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 app.focusWindowChanged.disconnect(self.check_modal_dialog)
             except (RuntimeError, TypeError):
                 pass
+            app.removeEventFilter(self)
+        self._jog_stop()
         self._running = False
         self._redraw_timer.stop()
         self._status_timer.stop()
@@ -1094,6 +1105,7 @@ class MainWindow(QtWidgets.QMainWindow):
         view of the state (STOP, RE-ARM, banner, status bar, open dialogs) follows."""
         if engaged:
             self.session.controller.estop()
+            self._jog_stop()  # nothing jogs on after a STOP (nor when re-armed)
         else:
             self.session.controller.rearm()
         self.estop_button.set_engaged(engaged)
@@ -1207,6 +1219,204 @@ class MainWindow(QtWidgets.QMainWindow):
             self._show_note(str(exc))
             return
         self.target_panel.show_manual_target(pose.base_p)
+
+    # --- jogging (issue 13): the Jog tab's ± buttons and the keys --------------------------------
+    def _build_jog(self) -> None:
+        s = self.session
+        self.jogger = Jogger(s.profile, s.kinematics, desk_margin_m=s.controller.workspace.desk_margin_m)
+        self.jog_panel = JogPanel()
+        self.jog_panel.set_joints(s.profile.joint_names)
+        prm = self.jogger.params
+        self.jog_panel.set_step_labels([f"{v * 1e3:g} mm" for v in prm.cartesian_steps_m],
+                                       [f"{v:g}°" for v in prm.joint_steps_deg])
+        self.jog_panel.set_step_index(self.jogger.step_index)
+        self.jog_panel.sigPressed.connect(self.jog_press)
+        self.jog_panel.sigReleased.connect(self.jog_release)
+        self.jog_panel.sigSpaceChanged.connect(self.set_jog_space)
+        self.jog_panel.sigStepChanged.connect(self.set_jog_step)
+        self._jog_timer = QtCore.QTimer(self)
+        self._jog_timer.setInterval(JOG_TICK_MS)
+        self._jog_timer.timeout.connect(self._jog_tick)
+        self._jog_keys: dict[int, int] = {}  # a held jog key → its channel (released by the same key)
+        self._jog_note = ""
+        self._jog_tab_index = 1  # the tab after Target: Jog, or Pose (with the jog below it)
+        self._jog_show()
+
+    def _jog_with_pose(self) -> QtWidgets.QWidget:
+        """The Pose tab's page for 6-DOF arms: the pose controls, then jogging."""
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.pose_panel)
+        title = QtWidgets.QLabel("<b>Jog</b>")
+        layout.addWidget(title)
+        layout.addWidget(self.jog_panel)
+        return page
+
+    @QtCore.Slot(str)
+    def set_jog_space(self, space: str) -> None:
+        """Cartesian or joint jogging (J, or the tab's switch). Back in x/y/z after a joint jog the
+        Cartesian target continues from where the joints put the tool."""
+        c = self.session.controller
+        self.jogger.set_space(space)
+        self._jog_keys.clear()
+        self._jog_timer.stop()
+        self.jog_panel.set_space(self.jogger.space.value)
+        if self.jogger.space is JogSpace.CARTESIAN and c.joint_jog is not None:
+            q = c.joint_jog
+            c.set_joint_jog(None)
+            if self.pose_panel is not None:  # 6-DOF: keep the orientation the joints gave the tool too
+                pose = pose_target_from_matrix(self.session.kinematics.fk_pose(q))
+                pose = replace(pose, grip_m=self.session.targeter.manual_grip_m)
+                self.pose_panel.set_pose(pose)
+                self.on_pose_target(pose)
+                self.jogger.start_cartesian(pose.base_p)
+            else:
+                self._jog_apply_cartesian(self.jogger.start_cartesian(self.session.kinematics.fk(q)))
+        self._jog_show()
+
+    @QtCore.Slot(int)
+    def set_jog_step(self, index: int) -> None:
+        self.jogger.set_step_index(index)
+        self.jog_panel.set_step_index(self.jogger.step_index)
+        self._jog_show()
+
+    @QtCore.Slot(int, int)
+    def jog_press(self, channel: int, direction: int) -> None:
+        """A ± button or a jog key went down: one step now, more while it is held (not while stopped)."""
+        if not self.session.controller.armed:
+            self._jog_note = "stopped — hold RE-ARM before jogging"
+            self._jog_show()
+            return
+        if not self.jogger.holding:
+            self._jog_begin()
+        try:
+            target = self.jogger.press(channel, direction, time.monotonic())
+        except ValueError as exc:
+            self._show_note(str(exc))
+            return
+        self._jog_apply(target)
+        self._jog_timer.start()
+
+    @QtCore.Slot(int)
+    def jog_release(self, channel: int) -> None:
+        """The button or key came up: the target stops where it is."""
+        if self.jogger.holding and self.session.controller.armed:
+            self._jog_apply(self.jogger.release(channel, time.monotonic()))
+        if not self.jogger.holding:
+            self._jog_timer.stop()
+
+    def _jog_begin(self) -> None:
+        """Where a jog starts: the MANUAL target or the joint jog's target when one is on, else
+        where the arm is commanded (so jogging out of Follow starts at the tool, not at an old target)."""
+        s, c = self.session, self.session.controller
+        manual = s.targeter.mode is TargetMode.MANUAL
+        q_arm = c.last.q if c.last is not None else c.start_pose(self._state)
+        if self.jogger.space is JogSpace.CARTESIAN:
+            if manual and c.joint_jog is None:
+                self.jogger.start_cartesian(s.targeter.manual_target)
+            else:
+                self.jogger.start_cartesian(s.kinematics.fk(c.joint_jog if manual and c.joint_jog else q_arm))
+        else:
+            self.jogger.start_joints(c.joint_jog if manual and c.joint_jog is not None else q_arm)
+
+    def _jog_apply(self, target) -> None:
+        """The jog's new target to the arm: the MANUAL target (Cartesian) or a joint goal."""
+        s = self.session
+        if self.jogger.space is JogSpace.CARTESIAN:
+            self._jog_apply_cartesian(target)
+        else:
+            # the manual target follows the joints' tool point (the twin and the Target tab show it)
+            base_p = tuple(float(v) for v in s.kinematics.fk(target))
+            if s.targeter.mode is not TargetMode.MANUAL:  # Manual at that point first: no jump
+                self._jog_apply_cartesian(base_p)
+                s.controller.set_joint_jog(target, base_p)
+                self.workers.control.user_input()  # step at once, not at the next tick
+            else:
+                s.controller.set_joint_jog(target, base_p)  # before the target: see set_joint_jog
+                self.on_manual_target(base_p)  # the targeter's listener steps the control at once
+                self.target_panel.show_manual_target(base_p)
+        self._jog_note = self.jogger.note
+        self._jog_show()
+        self._mark_dirty()
+
+    def _jog_apply_cartesian(self, base_p) -> None:
+        s = self.session
+        s.controller.set_joint_jog(None)
+        self.on_manual_target(base_p)  # the target first, then the mode: no step towards an old target
+        self.target_panel.show_manual_target(base_p)
+        if s.targeter.mode is not TargetMode.MANUAL:
+            self.target_panel.set_mode(TargetMode.MANUAL.value)
+            self.on_mode_changed(TargetMode.MANUAL.value)
+
+    def _jog_tick(self) -> None:
+        """50 Hz while something is held: the continuous part of the jog."""
+        if not self.session.controller.armed:
+            self._jog_stop()
+            return
+        target = self.jogger.update(time.monotonic())
+        if target is not None:
+            self._jog_apply(target)
+        if not self.jogger.holding:
+            self._jog_timer.stop()
+
+    def _jog_stop(self) -> None:
+        """Let go of every jog key and button (STOP, focus lost, closing): targets stay put."""
+        if getattr(self, "jogger", None) is None:
+            return
+        self.jogger.release_all()
+        self._jog_keys.clear()
+        self._jog_timer.stop()
+
+    def _jog_show(self) -> None:
+        s, c = self.session, self.session.controller
+        joint_space = self.jogger.space is JogSpace.JOINT
+        q = c.joint_jog if joint_space and c.joint_jog is not None else (
+            c.last.q if c.last is not None else s.profile.q_home)
+        p = s.kinematics.fk(q) if joint_space else s.targeter.manual_target
+        self.jog_panel.show_state(p, joint_display(s.profile, q), self._jog_note)
+
+    def eventFilter(self, obj, event) -> bool:  # noqa: N802 (Qt override)
+        """Jog keys anywhere in this window unless the focus is in a text field (installed on the
+        application in start(): a focused slider or tab bar would otherwise eat the arrows)."""
+        kind = event.type()
+        if kind in (QtCore.QEvent.Type.KeyPress, QtCore.QEvent.Type.KeyRelease):
+            if isinstance(obj, QtWidgets.QWidget) and obj.window() is self and self._jog_key(
+                    event, kind == QtCore.QEvent.Type.KeyPress):
+                return True
+        elif kind == QtCore.QEvent.Type.WindowDeactivate and obj is self:
+            self._jog_stop()  # a key released in another window never comes here
+        return super().eventFilter(obj, event)
+
+    def _jog_key(self, event: QtGui.QKeyEvent, pressed: bool) -> bool:
+        """Handle one key event as a jog key; True when it was one (and is used up)."""
+        mods = QtCore.Qt.KeyboardModifier
+        if event.modifiers() & (mods.ControlModifier | mods.AltModifier | mods.MetaModifier):
+            return False
+        if is_text_field(QtWidgets.QApplication.focusWidget()):
+            return False
+        key = int(event.key())
+        if not pressed:
+            if key in self._jog_keys:
+                if not event.isAutoRepeat():
+                    self.jog_release(self._jog_keys.pop(key))
+                return True
+            return False
+        action = jog_key_action(key, self.jogger.space.value, self.jog_panel.selected_joint, self.jogger.joint_count)
+        if action is None:
+            return False
+        if event.isAutoRepeat():
+            return True  # held: the timer moves it
+        if action.kind == "jog":
+            self._jog_keys[key] = action.channel
+            self.jog_press(action.channel, action.direction)
+        elif action.kind == "step":
+            self.set_jog_step(self.jogger.step_index + action.direction)
+        elif action.kind == "space":
+            self.set_jog_space((JogSpace.JOINT if self.jogger.space is JogSpace.CARTESIAN else JogSpace.CARTESIAN).value)
+        elif action.kind == "joint":
+            self.jog_panel.set_selected_joint(action.channel)
+        return True
 
     def _twins(self):
         return [t for t in (self.twin, self.twin3d) if t is not None]
@@ -1333,6 +1543,8 @@ class MainWindow(QtWidgets.QMainWindow):
         cmd_deg = joint_display_values(s.profile, cmd.q) if cmd is not None else None
         meas_deg = joint_display_values(s.profile, self._state.q) if self._state is not None else None
         self.joints.set_values(cmd_deg, meas_deg)
+        if self.tabs.currentIndex() == self._jog_tab_index:
+            self._jog_show()
         if not self._only_changes:
             self._refresh_status()  # redraw-all: every frame, as before
 
