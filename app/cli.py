@@ -113,6 +113,7 @@ SUBCOMMANDS = {
     "detect": "app.cli_detect",
     "train-detector": "app.cli_train",
     "eval-detector": "app.cli_train",
+    "assist-trials": "app.cli_assist",
 }
 
 
