@@ -32,9 +32,10 @@ from app.hand_eye import HandEyeController
 from app.preferences import WindowPreferences
 from app.startup import finish_splash, make_app
 from app.workers import WorkerSet
-from core.detect.colour import colour_from_pixel
+from core.detect.colour import DEFAULT_COLOURS, colour_from_pixel
 from core.messages import TargetMode
-from core.motion.jog import JogSpace, Jogger, joint_display
+from core.motion.jog import JogSpace, Jogger, JogTeleopSource, joint_display
+from core.motion.teleop import Box, TeleopController, make_hand_source, reachable_target_box
 from core.motion.pick_place import PickPlaceSequence
 from core.vision.markers import default_markers
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
@@ -64,6 +65,7 @@ from widgets.pose_panel import PosePanel, pose_panel_applies, pose_target_from_m
 from widgets.status import Banner, StatusBarItems
 from widgets.stereo_panel import StereoPanel
 from widgets.target_panel import TargetPanel
+from widgets.teleop_panel import KEYBOARD_SOURCE, target_box_problem, teleop_banner_text
 
 REDRAW_INTERVAL_MS = 33  # ~30 Hz display rate: draws start at least this far apart
 MIN_REDRAW_GAP_MS = 5  # and leave the event loop at least this long between them (slow draws)
@@ -162,6 +164,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.preferences.restore()
         if self.preferences.messages:
             self._show_note(" · ".join(self.preferences.messages))
+        self._teleop_start_mode()  # --teleop / the teleop scenario: over a remembered mode
 
     @property
     def redraw_only_changes(self) -> bool:
@@ -336,6 +339,7 @@ class MainWindow(QtWidgets.QMainWindow):
         tp.sigLissajousChanged.connect(self.on_lissajous)
         tp.sigLissajousRunning.connect(self.on_lissajous_running)
         tp.set_mode(s.targeter.mode.value)
+        self._build_teleop()
         sp = self.stereo_panel
         sp.sigParamsChanged.connect(self.on_sgbm_params)
         sp.sigMatchParamsChanged.connect(self.on_match_params)
@@ -683,6 +687,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.session.targeter.set_follow_object(*chosen)
             if not self._detectors_running:
                 self._show_note(NO_DETECTOR_HINT)
+        if TargetMode(mode) is TargetMode.TELEOP:
+            self._teleop_ensure_controller()
 
     @QtCore.Slot(object)
     def on_manual_target(self, p) -> None:
@@ -1288,6 +1294,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self._jog_note = "stopped — hold RE-ARM before jogging"
             self._jog_show()
             return
+        if self._teleop_keys_drive():  # the keyboard is TELEOP's hand source: the keys move its target
+            self._teleop_keyboard.press(channel, direction, self.session.clock.now())
+            return
         if not self.jogger.holding:
             self._jog_begin()
         try:
@@ -1301,6 +1310,8 @@ class MainWindow(QtWidgets.QMainWindow):
     @QtCore.Slot(int)
     def jog_release(self, channel: int) -> None:
         """The button or key came up: the target stops where it is."""
+        if self._teleop_keyboard is not None:
+            self._teleop_keyboard.release(channel, self.session.clock.now())
         if self.jogger.holding and self.session.controller.armed:
             self._jog_apply(self.jogger.release(channel, time.monotonic()))
         if not self.jogger.holding:
@@ -1365,6 +1376,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if getattr(self, "jogger", None) is None:
             return
         self.jogger.release_all()
+        if getattr(self, "_teleop_keyboard", None) is not None:
+            self._teleop_keyboard.release_all()
         self._jog_keys.clear()
         self._jog_timer.stop()
 
@@ -1417,6 +1430,154 @@ class MainWindow(QtWidgets.QMainWindow):
         elif action.kind == "joint":
             self.jog_panel.set_selected_joint(action.channel)
         return True
+
+    # --- teleoperation (issue 13): the Target tab's Teleop page, its banner line, the twin's boxes -------
+    # (one block: the source choice builds a TeleopController — or the keyboard's JogTeleopSource —
+    # for the targeter's TELEOP mode; the target box is checked against the arm's reach here)
+    def _build_teleop(self) -> None:
+        s = self.session
+        self.teleop_panel = self.target_panel.teleop
+        # TeleopParams for the controllers this window builds (None: the defaults); tests shorten the gestures
+        self.teleop_params = None
+        # spec → HandSource ("marker:23", "hsv:green", "pose:PATH"); a test may put a scripted source here
+        self.teleop_source_factory = self._make_hand_source
+        self._teleop_keyboard: Optional[JogTeleopSource] = None  # while the keyboard is TELEOP's source
+        self._teleop_margin = float(s.controller.workspace.desk_margin_m)
+        current = s.targeter.teleop  # the session's (--teleop, the teleop scenario), or None
+        box = getattr(current, "target_box", None)
+        presets: list[tuple[str, Box]] = []
+        try:
+            common = reachable_target_box(s.kinematics, self._teleop_margin)
+            presets = [("Every arm reaches", common), ("Half size", common.shrunk(0.5))]
+            larger = reachable_target_box(s.kinematics, self._teleop_margin, box=common.shrunk(1.5), tries=4)
+            if larger != common:
+                presets.append(("Larger (this arm)", larger))
+        except ValueError as exc:  # an arm that reaches no box around the common one: say so on the page
+            self.teleop_panel.refuse_target_box(str(exc))
+        box = box or (presets[0][1] if presets else None)
+        self.teleop_panel.set_presets(presets)
+        if box is not None:
+            self.teleop_panel.show_target_box(box)
+        ids = tuple(getattr(s.perception, "marker_ids", s.options.marker_ids))
+        self.teleop_panel.set_sources(ids, [c.name for c in DEFAULT_COLOURS])
+        if current is not None:
+            self.teleop_panel.set_source(getattr(current, "source", current).name)
+        self.teleop_panel.sigSourceChanged.connect(self.on_teleop_source)
+        self.teleop_panel.sigRestart.connect(self.on_teleop_restart)
+        self.teleop_panel.sigTargetBoxChanged.connect(self.on_teleop_target_box)
+
+    def _teleop_start_mode(self) -> None:
+        """``--teleop`` or ``--scenario teleop``: start in TELEOP mode (the session set it; a
+        remembered mode from the last run does not win over it)."""
+        s = self.session
+        if s.targeter.teleop is None or not (s.options.teleop_source or s.options.scenario == "teleop"):
+            return
+        if s.targeter.mode is not TargetMode.TELEOP or self.target_panel.mode != TargetMode.TELEOP.value:
+            self.target_panel.set_mode(TargetMode.TELEOP.value)
+            self.on_mode_changed(TargetMode.TELEOP.value)
+            if self._note == NO_DETECTOR_HINT:  # the remembered Object mode's hint: no longer the mode
+                self._clear_note()
+
+    def _make_hand_source(self, spec: str):
+        s = self.session
+        return make_hand_source(spec, s.calibration, s.perception.base_T_camera)
+
+    def _teleop_controller_for(self, spec: str):
+        """A new teleop controller for ``spec`` (ValueError, OSError, or the pose model's error)."""
+        s = self.session
+        if spec == KEYBOARD_SOURCE:
+            jogger = Jogger(s.profile, s.kinematics, desk_margin_m=self._teleop_margin)
+            q = self._command.q if self._command is not None else s.profile.q_home
+            return JogTeleopSource(jogger, s.kinematics.fk(q))  # from where the arm is
+        box = self.teleop_panel.accepted_box or reachable_target_box(s.kinematics, self._teleop_margin)
+        return TeleopController(self.teleop_source_factory(spec), box, self.teleop_params)
+
+    @QtCore.Slot(str)
+    def on_teleop_source(self, spec: str) -> None:
+        """A hand source was chosen: TELEOP mode with a new controller (it calibrates afresh)."""
+        s = self.session
+        previous = s.targeter.teleop
+        try:
+            controller = self._teleop_controller_for(spec)
+        except Exception as exc:  # noqa: BLE001 — a bad spec, a missing file, a model cv2.dnn cannot read
+            self._show_note(f"teleop source {spec}: {exc}")
+            if previous is not None:
+                self.teleop_panel.set_source(getattr(previous, "source", previous).name)
+            return
+        self._teleop_keyboard = controller if isinstance(controller, JogTeleopSource) else None
+        s.targeter.set_teleop(controller)
+        if spec.startswith("hsv:") and not self._detectors_running:
+            self._show_note(f"teleop source {spec}: the glove is seen by the hsv detector — "
+                            "turn it on in the Objects tab")
+        if s.targeter.mode is not TargetMode.TELEOP:  # choosing a hand means driving by hand
+            self.target_panel.set_mode(TargetMode.TELEOP.value)
+            self.on_mode_changed(TargetMode.TELEOP.value)
+        self._mark_dirty()
+
+    def _teleop_ensure_controller(self) -> None:
+        """Into TELEOP mode without a hand source: the panel's choice (else the first marker)."""
+        if self.session.targeter.teleop is not None:
+            return
+        spec = self.teleop_panel.source or f"marker:{self.session.options.marker_ids[0]}"
+        self.teleop_panel.set_source(spec)
+        self.on_teleop_source(spec)
+
+    @QtCore.Slot()
+    def on_teleop_restart(self) -> None:
+        """Restart: calibrate again (the keyboard source goes back to where it started)."""
+        if self.session.targeter.teleop is None:
+            self._teleop_ensure_controller()
+            return
+        if self._teleop_keyboard is not None:
+            self._teleop_keyboard.restart()
+        else:
+            self.session.targeter.restart_teleop()
+        self._mark_dirty()
+
+    @QtCore.Slot(object, object)
+    def on_teleop_target_box(self, lo, hi) -> None:
+        """The target box was edited (or a preset chosen): taken when the arm reaches all of it,
+        else refused with the reason (the controls go back to the box in use)."""
+        if not all(a < b for a, b in zip(lo, hi)):
+            axes = ", ".join(axis for axis, a, b in zip("xyz", lo, hi) if not a < b)
+            self.teleop_panel.refuse_target_box(f"target box: min must be below max along {axes}")
+            return
+        box = Box(tuple(lo), tuple(hi))
+        problem = target_box_problem(self.session.kinematics, box, self._teleop_margin)
+        if problem:
+            self.teleop_panel.refuse_target_box(problem)
+            return
+        self.teleop_panel.show_target_box(box)
+        controller = self.session.targeter.teleop
+        if hasattr(controller, "set_target_box"):
+            # the control worker calls the controller under the targeter's lock: change it under it too
+            with self.session.targeter._lock:
+                controller.set_target_box(box)
+        self._mark_dirty()
+
+    def _teleop_keys_drive(self) -> bool:
+        """The jog keys move TELEOP's keyboard source (Cartesian jogging only: it gives a point)."""
+        return (self._teleop_keyboard is not None and self.session.targeter.teleop is self._teleop_keyboard
+                and self.session.targeter.mode is TargetMode.TELEOP and self.jogger.space is JogSpace.CARTESIAN)
+
+    def _draw_teleop(self, twin):
+        """The teleop state on the Teleop page and in the twin (hand volume, target box, hand,
+        mapped point); the TeleopStatus in TELEOP mode, else None (and the twin's items cleared)."""
+        s = self.session
+        status = s.targeter.teleop_status() if s.targeter.mode is TargetMode.TELEOP else None
+        set_teleop = getattr(twin, "set_teleop", None)  # the 2D twin; the 3D one does not draw it
+        if status is None:
+            if set_teleop is not None:
+                set_teleop()
+            if s.targeter.mode is TargetMode.TELEOP:
+                self.teleop_panel.set_status(None)
+            return None
+        self.teleop_panel.set_status(status)
+        if set_teleop is not None:
+            keyboard = status.source == KEYBOARD_SOURCE  # its "target box" is only the reach sphere's
+            set_teleop(status.hand_box, None if keyboard else status.target_box,
+                       None if keyboard else status.base_p_hand, status.base_p_mapped)
+        return status
 
     def _twins(self):
         return [t for t in (self.twin, self.twin3d) if t is not None]
@@ -1520,6 +1681,8 @@ class MainWindow(QtWidgets.QMainWindow):
         elif self._state is not None:
             twin.set_measured_label("measured" if self._state.measured else "commanded (no feedback)")
         goal, cmd = self._goal, self._command
+        teleop = self._draw_teleop(twin)  # TeleopStatus in TELEOP mode, else None
+        teleop_line = None if teleop is None else teleop_banner_text(teleop)
         if goal is not None:
             twin.set_target(goal.base_p_target if goal.valid else None, bool(cmd.reachable) if cmd else True)
             twin.set_aimed_point(cmd.base_p_target if cmd is not None and not cmd.reachable else None)
@@ -1527,6 +1690,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.target_panel.set_reach_status("arm stopped (e-stop) — nothing is commanded", False)
             elif s.controller.paused:
                 self.target_panel.set_reach_status(f"arm holding still — {s.controller.note or 'paused'}", False)
+            elif teleop_line is not None and not goal.valid:  # calibrating, hand lost, ended
+                self.target_panel.set_reach_status(*teleop_line)
             elif not goal.valid:
                 self.target_panel.set_reach_status(goal.note or "target lost — holding", False)
             elif s.controller.workspace_note:  # below the desk, in a keep-out box: say which
@@ -1538,8 +1703,12 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.target_panel.set_reach_status(self._preview_note, False)
             elif goal.mode is TargetMode.OBJECT:  # "following red ball #3"
                 self.target_panel.set_reach_status(following_text(goal), True)
+            elif teleop_line is not None and goal.mode is TargetMode.TELEOP:  # "teleop: following"
+                self.target_panel.set_reach_status(*teleop_line)
             else:
                 self.target_panel.set_reach_status(f"on target{' · ' + goal.note if goal.note else ''}", True)
+        elif teleop_line is not None:  # no command yet (calibrating from the start): the strip says why
+            self.target_panel.set_reach_status(*teleop_line)
         cmd_deg = joint_display_values(s.profile, cmd.q) if cmd is not None else None
         meas_deg = joint_display_values(s.profile, self._state.q) if self._state is not None else None
         self.joints.set_values(cmd_deg, meas_deg)

@@ -422,7 +422,7 @@ class ControlWorker(_LoopThread):
     """Targeting + IK + safety, when the session's ControlSchedule says: at once for a new
     perception result or user input, else on the 50 Hz tick; hands commands to the bridge worker."""
 
-    sigCommand = QtCore.Signal(object, object)
+    sigCommand = QtCore.Signal(object, object)  # (JointCommand, the Goal the controller used: controller.last_goal)
 
     def __init__(self, session: DeskSession, results: Latest, states: Latest, commands: Latest, parent=None):
         super().__init__("control", parent)
@@ -479,7 +479,8 @@ class ControlWorker(_LoopThread):
         cmd = s.controller.step(goal, q_now, now)
         if cmd is not None:
             self.commands.put(cmd)
-            self.sigCommand.emit(cmd, goal)
+            # the goal the controller used: a joint jog turns a MANUAL goal into a joint goal
+            self.sigCommand.emit(cmd, s.controller.last_goal or goal)
 
 
 class BridgeWorker(_LoopThread):

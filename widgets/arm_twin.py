@@ -39,6 +39,8 @@ DESK_COLOUR = (150, 110, 70)
 STRUCTURE_COLOUR = (150, 150, 150)  # fixed parts from the profile: delta base plate, UMI-RTX column
 KEEP_OUT_COLOUR = (235, 40, 40)  # the profile's keep-out boxes: red outline …
 KEEP_OUT_FILL_ALPHA = 50  # … over a translucent red fill
+TELEOP_HAND_COLOUR = (235, 235, 235)  # teleop: the calibrated hand volume (dashed) and the hand (not marker cyan)
+TELEOP_TARGET_COLOUR = (255, 120, 200)  # teleop: the target box the hand volume maps to, the mapped point
 DESK_MARGIN_COLOUR = (235, 40, 40, 160)  # the desk margin line (side view), dashed
 GRID_STEP_CM = 10.0
 GRID_EXTENT_CM = 200.0
@@ -298,6 +300,17 @@ def box_side_section(box_min: Sequence[float], box_max: Sequence[float],
     return np.array([(s0, z0), (s1, z0), (s1, z1), (s0, z1), (s0, z0)])
 
 
+def box_side_shadow(box_min: Sequence[float], box_max: Sequence[float],
+                    azimuth_rad: float) -> np.ndarray:
+    """A box's shadow on the side view's plane: the closed (5,2) s, z rectangle (m) its eight
+    corners project to (for the teleop boxes, which the arm reaches into from anywhere)."""
+    lo, hi = np.asarray(box_min, float).reshape(3), np.asarray(box_max, float).reshape(3)
+    corners = np.array([(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    sz = side_view_coords(corners, azimuth_rad)
+    s0, s1, z0, z1 = sz[:, 0].min(), sz[:, 0].max(), lo[2], hi[2]
+    return np.array([(s0, z0), (s1, z0), (s1, z1), (s0, z1), (s0, z0)])
+
+
 def outlines_with_gaps(outlines: Sequence[np.ndarray]) -> np.ndarray:
     """2D polylines (each (N,2)) as one (M,2) array with NaN rows between them (empty: (0,2))."""
     parts = []
@@ -457,6 +470,13 @@ def legend_entries(measured_label: str,
                swatch(MEASURED_COLOUR, "━●", measured_label), target, limits,
                swatch(AIMED_COLOUR, "○", "aimed")]
     return entries + (list(markers) if markers else [swatch(MARKER_COLOUR, "■", "markers")])
+
+
+def teleop_legend_entries() -> list[tuple[str, ...]]:
+    """The legend's teleop entries (while teleop boxes are drawn): the hand volume, the target box
+    it maps to with the mapped point."""
+    return [tuple(_swatch_words(TELEOP_HAND_COLOUR, "┅○", "hand")),
+            tuple(_swatch_words(TELEOP_TARGET_COLOUR, "□◆", "teleop box"))]
 
 
 def legend_html(measured_label: str) -> str:
@@ -998,6 +1018,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._keep_out: list[tuple[str, np.ndarray, np.ndarray]] = []  # (name, min, max) m
         self._desk_margin = 0.0  # m; the side view's dashed line
         self._drawn_keep_out_azimuth: Optional[float] = None  # the side sections are for this plane
+        # teleoperation (set_teleop): boxes as (lo, hi) tuples in m, points (3,) m
+        self._teleop_boxes: tuple = (None, None)  # (hand volume, target box)
+        self._teleop_points: tuple = (None, None)  # (hand, mapped point)
         self._level_brush = {k: pg.mkBrush(*LEVEL_COLOURS[k]) for k in LEVELS}
         self._level_pen = {"ok": pg.mkPen("k", width=1), "warn": pg.mkPen("w", width=2),
                            "limit": pg.mkPen("w", width=2)}
@@ -1017,6 +1040,8 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._margin_line.setZValue(-9)
         self._margin_line.setVisible(False)
         self.side_plot.addItem(self._margin_line)
+        self._teleop_items = {view: self._make_teleop_items(plot)
+                              for view, plot in (("top", self.top_plot), ("side", self.side_plot))}
 
         # The legend is a row of text under the plots rather than a pg.LegendItem: on a small
         # screen an in-plot legend hides the arm, and pyqtgraph's hides a curve when tapped.
@@ -1157,6 +1182,12 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._draw_joints()
 
 
+    def _update_legend(self) -> None:
+        entries = legend_entries(self._measured_label, self._marker_entries)
+        if getattr(self, "_teleop_boxes", (None, None)) != (None, None):
+            entries += teleop_legend_entries()
+        self.legend_label.set_entries(entries)
+
     def _colour_target(self, colour: str) -> None:
         pen = pg.mkPen(colour, width=3)  # a cross in both views
         self._top.target.setPen(pen)
@@ -1199,6 +1230,38 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._top.set_marker_labels(ids, top)
         self._draw_side_markers()
         self._show_marker_positions(self._markers)
+
+    def set_teleop(self, hand_box=None, target_box=None, base_p_hand=None, base_p_mapped=None) -> None:
+        """Teleoperation in both views: the calibrated hand volume (dashed, white), the target box it
+        maps to (pink), the hand (white ring) and the mapped point (pink diamond, on the target cross). Boxes are
+        ``core.motion.teleop.Box`` (or anything with ``lo``/``hi``) in m, robot_base, or None; all
+        None clears. Only what changed is set again (the window calls this with every draw)."""
+        boxes = tuple(None if b is None else (tuple(map(float, b.lo)), tuple(map(float, b.hi)))
+                      for b in (hand_box, target_box))
+        points = tuple(None if p is None else np.asarray(p, dtype=float).reshape(3)
+                       for p in (base_p_hand, base_p_mapped))
+        if boxes != self._teleop_boxes or self.redraw_unchanged:
+            legend = (boxes != (None, None)) != (self._teleop_boxes != (None, None))
+            self._teleop_boxes = boxes
+            self._draw_teleop_boxes("top")
+            self._draw_teleop_boxes("side")
+            if legend:  # the legend names the boxes while they are drawn (no labels in the small plots)
+                self._update_legend()
+        if (self.redraw_unchanged or not all(same_points(a, b) for a, b in zip(points, self._teleop_points))):
+            self._teleop_points = points
+            self._draw_teleop_points("top")
+            self._draw_teleop_points("side")
+
+    def teleop_drawn(self, view: str = "top") -> dict[str, np.ndarray]:
+        """What the teleop items show in ``view`` (cm): {"hand_box", "target_box": (5,2) outlines,
+        "hand", "mapped": (1,2) points}; only the visible ones."""
+        out = {}
+        for name, item in self._teleop_items[view].items():
+            if not item.isVisible():
+                continue
+            x, y = item.getData()
+            out[name] = np.column_stack([x, y])
+        return out
 
     def marker_labels(self, view: str = "top") -> list[pg.TextItem]:
         """The id labels shown in ``view`` ("top" or "side"), in id order."""
@@ -1252,6 +1315,10 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._draw_extra(self._side, self._side_xy)
         self._draw_target()
         self._draw_side_markers()
+        if any(b is not None for b in self._teleop_boxes):
+            self._draw_teleop_boxes("side")
+        if any(p is not None for p in self._teleop_points):
+            self._draw_teleop_points("side")
 
     def _draw_extra(self, view: _ViewItems, project) -> None:
         if self._extra is None and not view.extra_points.isVisible():
@@ -1270,6 +1337,39 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
                       size=[LEVEL_DOT_PX[v] for v in levels], data=levels)
         _set_points(self._top.joints, *_xy(pts), **kwargs)
         _set_points(self._side.joints, *self._side_xy(pts), **kwargs)
+
+    @staticmethod
+    def _make_teleop_items(plot: pg.PlotWidget) -> dict:
+        items = {
+            "hand_box": pg.PlotCurveItem(pen=pg.mkPen(TELEOP_HAND_COLOUR, width=2, style=QtCore.Qt.PenStyle.DashLine)),
+            "target_box": pg.PlotCurveItem(pen=pg.mkPen(TELEOP_TARGET_COLOUR, width=2)),
+            "hand": pg.ScatterPlotItem(symbol="o", size=14, brush=None, pen=pg.mkPen(TELEOP_HAND_COLOUR, width=3)),
+            "mapped": pg.ScatterPlotItem(symbol="d", size=12, brush=pg.mkBrush(TELEOP_TARGET_COLOUR),
+                                         pen=pg.mkPen("k", width=1)),
+        }
+        for z, item in zip((2.5, 2.6, 13.5, 13.6), items.values()):
+            item.setZValue(z)  # boxes above the workspace, below the arm; the points above the target cross
+            item.setVisible(False)
+            plot.addItem(item)
+        return items
+
+    def _draw_teleop_boxes(self, view: str) -> None:
+        items = self._teleop_items[view]
+        for name, box in zip(("hand_box", "target_box"), self._teleop_boxes):
+            item = items[name]
+            if box is None:
+                if item.isVisible():
+                    item.setVisible(False)
+                continue
+            outline = (box_top_outline(*box) if view == "top" else box_side_shadow(*box, self._azimuth)) * M_TO_CM
+            item.setData(outline[:, 0], outline[:, 1])
+            item.setVisible(True)
+
+    def _draw_teleop_points(self, view: str) -> None:
+        items = self._teleop_items[view]
+        project = _xy if view == "top" else self._side_xy
+        for name, p in zip(("hand", "mapped"), self._teleop_points):
+            _set_points(items[name], *project(None if p is None else p[None, :]))
 
     def _draw_side_markers(self) -> None:
         ids = sorted(self._markers)

@@ -17,6 +17,11 @@ SHORTCUTS = (
     ("F11", "full screen on / off"),
     ("F1", "this help"),
     ("Ctrl+Q", "quit (the arm stops first)"),
+    ("← → ↑ ↓", "jog x / y (joint space: the selected joint −/+); hold to keep moving"),
+    ("PgUp / PgDn", "jog z up / down"),
+    ("[ ]", "smaller / bigger jog step (also − and +)"),
+    ("J", "jog in x/y/z or joint space"),
+    ("1–9", "joint space: pick the joint to jog"),
 )
 
 

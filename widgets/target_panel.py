@@ -1,5 +1,5 @@
 """How the target is chosen: a mode switch and a page per mode (manual, follow, Lissajous, cups,
-a marker-less object)."""
+a marker-less object, teleoperation by hand)."""
 from __future__ import annotations
 
 import math
@@ -20,6 +20,7 @@ from widgets._style import (
     touch_scroll_area,
     touch_slider,
 )
+from widgets.teleop_panel import TeleopPanel
 
 M_TO_CM = 100.0
 CM_TO_SLIDER = 10  # the manual sliders count millimetres: one step per 0.1 cm shown
@@ -30,6 +31,7 @@ MODE_LABELS = (
     (TargetMode.LISSAJOUS, "Lissajous"),
     (TargetMode.CUPS, "Cups game"),
     (TargetMode.OBJECT, "Object"),
+    (TargetMode.TELEOP, "Teleop"),
 )
 MODE_BAR_SPACING_PX = 2
 
@@ -93,7 +95,7 @@ class _AxisControl:
 
 
 class TargetPanel(QtWidgets.QWidget):
-    """Target mode switch with pages for manual, follow-marker, Lissajous, cups and object modes.
+    """Target mode switch with pages for manual, follow-marker, Lissajous, cups, object and teleop modes.
 
     Positions are metres in robot_base in the API; the controls show centimetres, Hz and
     degrees. Long pages scroll so the panel fits an 800×480 screen. The Lissajous "Run"
@@ -101,7 +103,7 @@ class TargetPanel(QtWidgets.QWidget):
 
     Signals (GUI thread):
         sigModeChanged(str): the user picked a mode; a ``TargetMode`` value
-            ("manual", "follow", "lissajous", "cups", "object").
+            ("manual", "follow", "lissajous", "cups", "object", "teleop").
         sigManualTargetChanged(object): (x, y, z) tuple in metres, after a slider move, a
             committed spin-box edit or :meth:`set_manual_target`.
         sigFollowIdChanged(int): the marker id to follow changed (user pick, ``set_follow_id``
@@ -111,6 +113,8 @@ class TargetPanel(QtWidgets.QWidget):
         sigFollowObjectChanged(str label, object object_id): the marker-less object to follow
             (Object mode): a track id (int) with its label, or None to follow any object of
             that label; a user pick in the list or ``set_follow_object``.
+
+    The Teleop page is a ``widgets.teleop_panel.TeleopPanel`` (``self.teleop``) with its own signals.
     """
 
     sigModeChanged = QtCore.Signal(str)
@@ -151,6 +155,8 @@ class TargetPanel(QtWidgets.QWidget):
         self.stack.addWidget(touch_scroll_area(self._build_lissajous_page()))
         self.stack.addWidget(touch_scroll_area(self._build_cups_page()))
         self.stack.addWidget(touch_scroll_area(self._build_object_page()))
+        self.teleop = TeleopPanel()  # source, Restart, target box, state
+        self.stack.addWidget(touch_scroll_area(self.teleop))
 
         # --- reach status, visible on every page
         self.reach_label = QtWidgets.QLabel("")
@@ -343,7 +349,7 @@ class TargetPanel(QtWidgets.QWidget):
         if fit >= n:
             return n
         rows = -(-n // fit)
-        return -(-n // rows)  # the same rows, filled evenly (5 buttons: 3 + 2, not 4 + 1)
+        return -(-n // rows)  # the same rows, filled evenly (5 buttons: 3 + 2, not 4 + 1; 6: 3 + 3)
 
     def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
         """All mode buttons in a row when there is room, else wrapped into even rows."""

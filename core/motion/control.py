@@ -98,6 +98,9 @@ class ArmController:
             math.radians(j.max_speed_deg_s) * self.period_s for j in profile.joints
         )
         self.last: Optional[JointCommand] = None
+        # the goal the last step used, after the joint jog (a MANUAL goal may become a joint goal):
+        # what the window and the recorder show beside the command
+        self.last_goal: Optional[Goal] = None
         self.last_ik = None
         self.armed = True  # False after an e-stop: refuse new commands until re-armed
         self.paused_by: frozenset[str] = frozenset()  # why the arm holds still (e.g. "a dialog is open")
@@ -161,6 +164,7 @@ class ArmController:
         if not self.armed:
             return None
         goal = self._with_joint_jog(goal)
+        self.last_goal = goal
         paused_by = self.paused_by
         if paused_by:
             self.note = f"paused: {', '.join(sorted(paused_by))}"
