@@ -676,7 +676,7 @@ class TeleopScenario(Scenario):
     CORNER_A = (-0.06, 0.17, 0.14)  # band centre at the two calibration corners (robot_base, m)
     CORNER_B = (0.07, 0.25, 0.21)
     REST = (0.0, 0.21, 0.17)
-    ENTER_S, HOLD_A_S, MOVE_AB_S, HOLD_B_S = 1.5, 1.5, 2.0, 1.5
+    ENTER_S, HOLD_A_S, MOVE_AB_S, HOLD_B_S = 1.5, 2.0, 2.0, 2.0  # 1 s still + margin for a loaded real-time run
     STILL_S = 1.0  # stillness a corner needs (TeleopParams.still_hold_s)
     FREE_T0, FREE_T1, BLEND_S = 6.5, 19.5, 1.5
     WANDER_CENTRE = (0.005, 0.21, 0.175)
