@@ -64,6 +64,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="drive the arm by hand: marker:ID (a wristband marker), hsv:COLOUR (a glove, with "
                         "--detector hsv) or pose:PATH.onnx (a body pose model); calibrate by holding still 1 s "
                         "at two opposite corners (default with --scenario teleop: marker:<first marker id>)")
+    p.add_argument("--assist", action="store_true",
+                   help="open the assistive view (choose a button by touch, two switches or one switch; the "
+                        "eye-in-hand arm presses it) instead of the main window; implies --robot assistive_5dof "
+                        "--scenario panel on the simulated desk (default size 800x480)")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -117,6 +121,22 @@ SUBCOMMANDS = {
 }
 
 
+def run_assist(args) -> int:
+    """``deskarm --assist``: the assistive view on the simulated desk (assistive_5dof, the panel)."""
+    if args.robot not in ("desk_rrr", "assistive_5dof") or args.scenario not in ("static", "panel"):
+        print("deskarm: --assist runs the assistive_5dof arm on the simulated panel: leave out --robot and "
+              "--scenario (or give --robot assistive_5dof --scenario panel)", file=sys.stderr)
+        return 2
+    try:
+        size = parse_size("800x480" if args.size == "1280x800" else args.size)
+    except ValueError as exc:
+        print(f"deskarm: {exc}", file=sys.stderr)
+        return 2
+    from app.assist_window import run_assist_window
+
+    return run_assist_window(size)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in SUBCOMMANDS:
@@ -125,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
         module = importlib.import_module(SUBCOMMANDS[argv[0]])
         return module.run(argv[0], argv[1:])
     args = build_parser().parse_args(argv)
+    if args.assist:
+        return run_assist(args)
     try:
         detectors = () if args.detector is None else tuple(parse_detector_list(args.detector))
     except ValueError as exc:

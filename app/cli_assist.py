@@ -38,15 +38,10 @@ from typing import Optional
 import numpy as np
 
 PROG = "deskarm assist-trials"
-FRAME_DT_S = 1.0 / 30.0
-DETECT_EVERY = 3  # the detector runs on every 3rd frame (10 Hz); the tracker (or the Kalman) in between
+from core.motion.assist_loop import (  # noqa: E402,F401 (re-exported: the loop's constants)
+    DARK_FACE_LEVEL, DETECT_EVERY, DETECTED_RADII_M, FRAME_DT_S, MIN_RADIUS_OF_MEDIAN)
+
 SUCCESS_RADIUS_M = 0.003
-# the circle detector fits either the dark face's edge (most of the time) or the chrome ring's outer
-# edge: its semi-major axis is one of these physical radii (measured on hand-camera images at
-# 0.12–0.26 m, r_px·Z/f: 8.5–8.9 mm and 10.7–11.1 mm; the face is 0.78 of the 11 mm button)
-DETECTED_RADII_M = (0.0086, 0.011)
-DARK_FACE_LEVEL = 120  # grey level between the dark face (~40) and the chrome ring (~220)
-MIN_RADIUS_OF_MEDIAN = 0.6  # circles smaller than this fraction of the median radius are not offered
 AXIS_TILT_RAD = math.radians(30.0)  # the hand presses tilted back towards the base (see core.motion.servoing)
 TRIAL_TIMEOUT_S = 25.0
 # a press goes 6 mm past the estimated surface along the tool axis (5.2 mm down at 30°): the 3 mm travel
@@ -108,6 +103,9 @@ def _trial_scenario(rng):
     return TrialScene()
 
 
+trial_scene = _trial_scenario  # public: the assistive window shows the same still panel
+
+
 # -----------------------------------------------------------------------------------------------
 # the simulated user
 
@@ -158,97 +156,6 @@ def simulate_choice(mode: str, boxes: list, target_px, rng, scan_period_s: float
 
 
 # -----------------------------------------------------------------------------------------------
-# following the chosen button from frame to frame
-
-
-@dataclass
-class _Box:
-    box: tuple  # (x, y, w, h) at the tracker's scale
-    index: int  # which detection
-
-
-class _Follower:
-    """The chosen button from frame to frame: the detector on a window around it every
-    DETECT_EVERY frames; in between a KCF tracker (at half resolution: the button is large up
-    close, and KCF's cost grows with it) or, with no tracker, nothing (the Kalman bridges)."""
-
-    SCALE = 0.5  # the tracker's image scale
-    WINDOW = 3.0  # the detector's window: this many radii around the last centre, each way
-
-    def __init__(self, trials: "AssistTrials", image, chosen, t: float):
-        from core.detect.tracking import ObjectTracker
-
-        self.trials = trials
-        self.centre = np.array(chosen.centre_px, dtype=float)
-        self.radius = float(chosen.radius_px)
-        self.point_base: Optional[np.ndarray] = None  # the button in robot_base, once a depth is known
-        self.tracker = ObjectTracker("KCF") if trials.use_tracker else None
-        if self.tracker is not None:
-            self.tracker.start(self._small(image), self._scaled(chosen.box), t)
-
-    def _small(self, image):
-        import cv2
-
-        return cv2.resize(image, None, fx=self.SCALE, fy=self.SCALE, interpolation=cv2.INTER_AREA)
-
-    def _scaled(self, box) -> tuple:
-        return tuple(float(v) * self.SCALE for v in box)
-
-    def remember(self, centre, depth_m: Optional[float], base_T_camera: np.ndarray) -> None:
-        """Keep where the button is in robot_base (its centre's ray at depth_m from the camera pose the
-        arm's joints give): later frames predict its pixel from the camera's own motion."""
-        if depth_m is None or not depth_m > 0:
-            return
-        K_inv = np.linalg.inv(self.trials.camera.K)
-        camera_p = K_inv @ np.array([centre[0], centre[1], 1.0]) * depth_m
-        self.point_base = (base_T_camera @ np.append(camera_p, 1.0))[:3]
-
-    def predicted_centre(self, base_T_camera: np.ndarray) -> np.ndarray:
-        """Where the button should be in this image: the remembered point seen from the camera's
-        pose now (ego-motion), else the last centre."""
-        if self.point_base is None:
-            return self.centre
-        uv, z = self.trials.camera.project(base_T_camera, self.point_base[None, :])
-        return uv[0] if z[0] > 0 else self.centre
-
-    def follow(self, image, t: float, detect: bool,
-               base_T_camera: Optional[np.ndarray] = None) -> tuple[Optional[np.ndarray], Optional[float]]:
-        """(centre px, detected radius px or None) of the chosen button in ``image``, or (None, None).
-        ``base_T_camera``: the camera's pose from the joints (no shake), for the ego-motion prediction."""
-        detections = None
-        expected = self.centre if base_T_camera is None else self.predicted_centre(base_T_camera)
-        if detect:
-            half = max(60.0, self.WINDOW * self.radius)
-            h, w = image.shape[:2]
-            x0, y0 = max(0.0, expected[0] - half), max(0.0, expected[1] - half)
-            x1, y1 = min(w - 1.0, expected[0] + half), min(h - 1.0, expected[1] + half)
-            detections = self.trials._detect(image, (x0, y0, x1 - x0, y1 - y0)) if x1 > x0 + 8 and y1 > y0 + 8 else []
-        centre, radius = None, None
-        if self.tracker is not None:
-            small_dets = None if detections is None else [_Box(self._scaled(d.box), i) for i, d in enumerate(detections)]
-            state = self.tracker.update(self._small(image), t, small_dets)
-            if state.ok and not state.lost:
-                centre = np.array(state.centre_px) / self.SCALE + (0.5 / self.SCALE - 0.5)  # pixel-centre convention
-                match = self.tracker.match(small_dets, t) if small_dets else None
-                if match is not None:
-                    d = detections[match.index]
-                    centre, radius = np.array(d.centre_px, dtype=float), float(d.radius_px)
-        elif detections:
-            # the nearest button-sized circle to where the button should be (screws are circles too)
-            sized = [d for d in detections if 0.6 <= d.radius_px / self.radius <= 1.6]
-            dist = [float(np.hypot(*(np.array(d.centre_px) - expected))) for d in sized]
-            i = int(np.argmin(dist)) if dist else -1
-            detections = sized
-            if i >= 0 and dist[i] <= max(30.0, 1.5 * self.radius):
-                centre, radius = np.array(detections[i].centre_px, dtype=float), float(detections[i].radius_px)
-        if centre is not None:
-            self.centre = centre
-        if radius is not None:
-            self.radius = radius
-        return centre, radius
-
-
-# -----------------------------------------------------------------------------------------------
 # one trial
 
 
@@ -275,6 +182,7 @@ class AssistTrials:
                  scan_period_s: float = 1.0, depth_source: str = "size"):
         from core.detect.registry import make_detector
         from core.motion.assist import AssistConfig
+        from core.motion.assist_loop import AssistLoop
         from core.kinematics.clik import ClikKinematics
         from core.kinematics.profile import load_profile
         from core.motion.servoing import IbvsConfig, IbvsController
@@ -301,6 +209,9 @@ class AssistTrials:
         self.ready_q = self._ready_pose()
         self.assist_config = AssistConfig(press_depth_m=PRESS_DEPTH_M, approach_speed_m_s=APPROACH_SPEED_M_S)
         self.trace: Optional[list] = None  # debugging: per frame (t, state, depth, true depth, centre error, IBVS error)
+        self.loop = AssistLoop(self.kin, self.camera, self.detector, self.servo, self.assist_config, self.ready_q,
+                               tracker=tracker, depth_source=depth_source, range_sensor=self.range_sensor,
+                               frame_dt_s=FRAME_DT_S, detect_every=DETECT_EVERY)
 
     def _ready_pose(self) -> tuple:
         """The arm's ready pose for this desk: the hand tilted as the servo holds it, the camera
@@ -321,43 +232,11 @@ class AssistTrials:
             q = teach.step(q, uv, float(camera_p[2]), FRAME_DT_S).q
         return q
 
-    def _depth(self, image, centre_px, radius_px: float) -> Optional[float]:
-        """The button's depth from its known size. The circle detector fits either the dark face's
-        edge or the chrome ring's outer edge; which one shows in the image just inside the fitted
-        circle (at 0.85 of its radius): dark face inside → the face (8.6 mm), bright ring → the ring."""
-        from core.motion.servoing import depth_from_size
-
-        a = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
-        xs = np.clip(np.round(centre_px[0] + 0.85 * radius_px * np.cos(a)).astype(int), 0, image.shape[1] - 1)
-        ys = np.clip(np.round(centre_px[1] + 0.85 * radius_px * np.sin(a)).astype(int), 0, image.shape[0] - 1)
-        samples = image[ys, xs]
-        inside = float(np.median(samples if samples.ndim == 1 else samples.mean(axis=1)))
-        fitted = DETECTED_RADII_M[0] if inside < DARK_FACE_LEVEL else DETECTED_RADII_M[1]
-        return depth_from_size(radius_px, fitted, self.camera.K[0, 0])
-
-    def _range_depth(self, centre_px, sensor_pose: np.ndarray, base_T_camera: np.ndarray, t: float) -> Optional[float]:
-        """The button's depth from the ultrasonic range: the echo comes from the surface the camera
-        axis points at (≈ 5 cm beside the button, the plate or the desk), taken as a horizontal plane
-        at that height; the button's depth is where its pixel's ray meets that plane (camera pose
-        from the joints, ``base_T_camera``; the sensor itself reads from where it really is, ``sensor_pose``,
-        shake included). None on a dropout."""
-        reading = self.range_sensor.measure(sensor_pose, t)
-        if reading is None:
-            return None
-        R, c = base_T_camera[:3, :3], base_T_camera[:3, 3]
-        plane_z = c[2] + reading * R[2, 2]
-        ray = R @ (np.linalg.inv(self.camera.K) @ np.array([centre_px[0], centre_px[1], 1.0]))  # camera z = 1
-        if ray[2] > -1e-6:
-            return None
-        depth = (plane_z - c[2]) / ray[2]
-        return float(depth) if depth > 0 else None
-
-    def _detect(self, image, roi=None) -> list:
-        return [d for d in self.detector.detect(image, roi) if d.radius_px is not None]
-
     def run_trial(self, index: int) -> TrialResult:
-        from core.motion.assist import ApproachFsm, AssistState, TargetObservation
-        from core.motion.scanning import reading_order
+        """One trial: the scene, the simulated user's choice, then ``AssistLoop`` frames until the
+        FSM is back in IDLE (or TRIAL_TIMEOUT_S), with the truth checks of the press."""
+        from core.motion.assist import AssistState
+
         rng = np.random.default_rng([self.seed, index, 12])
         scene = _trial_scenario(rng)
         self.desk.set_scenario(scene)
@@ -366,15 +245,10 @@ class AssistTrials:
         P = np.array(panel.button_centre(button))
         top_z = P[2]
         travel = panel.press_depth_m
-        q = self.ready_q
-        t = 0.0
-        frame = self.camera.render(q, t)
-        dets = self._detect(frame.image)
-        if dets:  # the plate's screws are small circles too: offer only button-sized ones
-            median_r = float(np.median([d.radius_px for d in dets]))
-            dets = [d for d in dets if d.radius_px >= MIN_RADIUS_OF_MEDIAN * median_r]
-        order = reading_order([d.box for d in dets])
-        dets = [dets[i] for i in order]
+        loop = self.loop
+        loop.reset(self.ready_q, 0.0)
+        frame = loop.render()
+        dets = loop.offer(frame)
         target_px = self.camera.project(frame.base_T_camera, P[None, :])[0][0]
         choice = simulate_choice(self.mode, [d.box for d in dets], target_px, rng, self.scan_period_s)
         res = TrialResult(button=button, selected_ok=False, selection_s=choice["seconds"], presses=choice["presses"])
@@ -383,25 +257,14 @@ class AssistTrials:
             return res
         chosen = dets[choice["index"]]
         res.selected_ok = _contains(chosen.box, target_px)
-        t = choice["seconds"]
-        t_start = t
-        fsm = ApproachFsm(self.servo, self.assist_config)
-        fsm.start(t, f"box {choice['index'] + 1}")
-        follower = _Follower(self, frame.image, chosen, t)
-        if self.depth_source == "range":
-            depth = self._range_depth(chosen.centre_px, frame.base_T_camera, self.kin.camera_pose(q), t)
-        else:
-            depth = self._depth(frame.image, chosen.centre_px, chosen.radius_px)
-        obs = TargetObservation(tuple(chosen.centre_px), depth)
-        follower.remember(chosen.centre_px, depth, self.kin.camera_pose(q))
-        prev_tool = self.camera.base_T_tool(q, t)[:3, 3]
+        t_start = choice["seconds"]
+        loop.select(choice["index"], t_start)
+        fsm = loop.fsm
+        prev_tool = self.camera.base_T_tool(loop.q, loop.t)[:3, 3]
         contact, deepest, t_contact = None, -np.inf, None
-        frame_no = 0
-        while fsm.state != AssistState.IDLE and t - t_start < TRIAL_TIMEOUT_S:
-            step = fsm.step(t, q, obs, FRAME_DT_S)
-            q = step.q
-            t += FRAME_DT_S
-            frame_no += 1
+        while fsm.state != AssistState.IDLE and loop.t - t_start < TRIAL_TIMEOUT_S:
+            frame, _command, _status = loop.step()
+            q, t = loop.q, loop.t
             # the press: where the tool tip's path crosses the button tops' plane, and how deep it goes
             tool = self.camera.base_T_tool(q, t)[:3, 3]
             if contact is None and prev_tool[2] > top_z >= tool[2]:
@@ -417,26 +280,13 @@ class AssistTrials:
                         scene.pressed = (hit[0],)
                         res.pressed_button = hit[0]
             prev_tool = tool
-            if fsm.state == AssistState.IDLE or fsm.state == AssistState.ACT:
-                obs = None
-                continue
-            frame = self.camera.render(q, t)
-            base_T_camera = self.kin.camera_pose(q)  # what the joints say (the shake is unknown to the arm)
-            centre, size = follower.follow(frame.image, t, frame_no % DETECT_EVERY == 0, base_T_camera)
-            if centre is None:
-                obs = None
-                continue
-            if self.depth_source == "range":
-                depth = self._range_depth(centre, frame.base_T_camera, base_T_camera, t)
-            else:
-                depth = None if size is None else self._depth(frame.image, centre, size)
-            obs = TargetObservation(tuple(centre), depth)
-            if size is not None:
-                follower.remember(centre, depth, base_T_camera)
-            if self.trace is not None:
+            if self.trace is not None and frame is not None and loop.last_status is not None:
                 true_uv, true_z = self.camera.project(frame.base_T_camera, P[None, :])
+                err = loop.last_status.error_px
+                depth = loop.last_status.depth_m
                 self.trace.append((round(t, 2), fsm.state.value, depth and round(depth, 4), round(float(true_z[0]), 4),
-                                   tuple(np.round(centre - true_uv[0], 1)), np.round(step.error_px, 1) if step.error_px is not None else None))
+                                   tuple(np.round(loop.last_centre - true_uv[0], 1)),
+                                   np.round(err, 1) if err is not None else None))
         res.outcome = fsm.outcome or "trial timeout"
         res.events = fsm.event_log()
         if contact is not None:

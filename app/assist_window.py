@@ -1,0 +1,828 @@
+"""The assistive view: choose a button on the hand camera's image by touch, two switches or one switch.
+
+``AssistWindow`` fills an 800×480 screen: the hand camera's image with the selectable boxes drawn
+big and numbered (``widgets.assist_view.AssistView``), a big state line ("choose a button",
+"aligning with 7", "approaching 7", "pressing 7", "done: 7 pressed", "stopped"), STOP always in
+the top right corner (``widgets.estop``: STOP only stops; RE-ARM needs a 1 s hold), the input
+mode (touch / 2 switches / 1 switch timed), the scan period T and a "Switches…" dialog that maps
+keys and mouse buttons to the roles "next", "confirm" and "single switch".
+
+Input modes (``core.motion.scanning`` holds their state machines):
+
+- touch: a tap (click) on a box selects it; a tap outside every box shows "not a button" briefly
+  and nothing moves;
+- two switches: "next" (default Space, right mouse button) moves the highlight on, "confirm"
+  (default Enter, left mouse button) starts the arm on the highlighted box; both act on release;
+- one switch, timed: the highlight moves on by itself every T s (0.5–5 s), a press confirms the
+  box highlighted when it went down.
+
+In both switch modes, holding a switch for ``long_press_s`` (1.5 s) stops the arm and cancels (the
+e-stop, as STOP); while stopped, holding it again for as long re-arms (the RE-ARM button's hold) —
+so a one-switch user reaches every action. Esc is STOP in every mode.
+
+The settings (mode, T, long press, mapping, sound cue) are kept in ``assist.toml`` in the user's
+config folder (core.paths; ``DESKARM_HOME`` in tests) — a file of its own so the main window's
+``preferences.toml`` is untouched.
+
+``AssistWorker`` (a QThread) runs ``core.motion.assist_loop.AssistLoop`` on the simulated desk
+(the still lift panel of ``deskarm assist-trials``, the ``assistive_5dof`` arm): on a simulated
+clock (frames as fast as the CPU goes: tests) or paced by the wall clock (30 frames/s).
+"""
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Callable, Optional
+
+from PySide6 import QtCore, QtGui, QtWidgets
+
+from core.motion.scanning import MAX_PERIOD_S, MIN_PERIOD_S, OneSwitchScanner, TouchSelector, TwoSwitchScanner
+from widgets._style import BUTTON_STYLE, SPIN_STYLE, TOUCH_PX
+from widgets.assist_view import AssistView
+from widgets.estop import EStopButton, RearmButton, StopDialog
+
+ASSIST_SETTINGS_FILE = "assist.toml"
+MODES = ("touch", "scan2", "scan1")
+MODE_NAMES = {"touch": "Touch", "scan2": "2 switches", "scan1": "1 switch"}
+SCAN_TICK_MS = 40  # how often the timed scan and the long-press hold are checked
+BOX_GROWTH_MAX = 1.6  # boxes are drawn (and hit-tested) up to this much larger than the detected circle …
+BOX_GAP_FRACTION = 0.9  # … but no larger than this fraction of the distance to the nearest neighbour
+
+
+# -----------------------------------------------------------------------------------------------
+# settings
+
+
+@dataclass(frozen=True)
+class AssistSettings:
+    """The assistive view's own settings (``assist.toml``)."""
+
+    mode: str = "touch"
+    scan_period_s: float = 1.5
+    long_press_s: float = 1.5
+    sound: bool = False
+    next_switch: tuple[str, ...] = ("key:Space", "mouse:right")
+    confirm_switch: tuple[str, ...] = ("key:Return", "key:Enter", "mouse:left")
+    single_switch: tuple[str, ...] = ("key:Space", "key:Return", "key:Enter", "mouse:left")
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"assist mode {self.mode!r}: use one of {', '.join(MODES)}")
+        if not MIN_PERIOD_S <= self.scan_period_s <= MAX_PERIOD_S:
+            raise ValueError(f"scan period {self.scan_period_s} s is outside {MIN_PERIOD_S:g}…{MAX_PERIOD_S:g} s")
+        if not 0.5 <= self.long_press_s <= 5.0:
+            raise ValueError(f"long press {self.long_press_s} s is outside 0.5…5 s")
+        for role in ("next_switch", "confirm_switch", "single_switch"):
+            names = getattr(self, role)
+            bad = [n for n in names if not is_switch_name(n)]
+            if bad or not names:
+                raise ValueError(f"{role} = {list(names)}: each switch is 'key:NAME' (a Qt key name such as "
+                                 f"key:Space, key:Return, key:F1) or one of mouse:left, mouse:right, mouse:middle")
+        if set(self.next_switch) & set(self.confirm_switch):
+            raise ValueError(f"{sorted(set(self.next_switch) & set(self.confirm_switch))} is both 'next' and "
+                             f"'confirm': give the two switches different keys or buttons")
+
+
+def is_switch_name(name: str) -> bool:
+    """'key:<Qt key name>' or 'mouse:left|right|middle'."""
+    if name in ("mouse:left", "mouse:right", "mouse:middle"):
+        return True
+    if not name.startswith("key:") or len(name) <= 4:
+        return False
+    return QtGui.QKeySequence.fromString(name[4:])[0].key() != QtCore.Qt.Key.Key_unknown
+
+
+def key_switch_name(event: QtGui.QKeyEvent) -> str:
+    """The switch name of a key event: 'key:Space', 'key:Return', 'key:A', …"""
+    return "key:" + QtGui.QKeySequence(event.key()).toString()
+
+
+def settings_path() -> Path:
+    from core.paths import user_dir
+
+    return user_dir("config") / ASSIST_SETTINGS_FILE
+
+
+def load_assist_settings(path: Optional[Path] = None) -> tuple[AssistSettings, list[str]]:
+    """The saved settings (defaults when there is no file) and warnings for what was not usable."""
+    import tomllib
+
+    path = Path(path) if path else settings_path()
+    if not path.exists():
+        return AssistSettings(), []
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        return AssistSettings(), [f"{path}: not readable ({exc}) — using the defaults; fix or delete the file"]
+    settings, warnings = AssistSettings(), []
+    for key, value in data.items():
+        if key not in AssistSettings.__dataclass_fields__:
+            warnings.append(f"{path}: unknown setting {key!r} ignored")
+            continue
+        if key.endswith("_switch"):
+            value = tuple(value) if isinstance(value, list) else value
+        try:
+            settings = replace(settings, **{key: value})
+        except (TypeError, ValueError) as exc:
+            warnings.append(f"{path}: {key}: {exc} — the default is used")
+    return settings, warnings
+
+
+def save_assist_settings(settings: AssistSettings, path: Optional[Path] = None) -> Path:
+    import tomli_w
+
+    from core.paths import write_file_atomically
+
+    data = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(settings).items()}
+    text = "# deskarm: the assistive view's settings (written by the window)\n" + tomli_w.dumps(data)
+    return write_file_atomically(Path(path) if path else settings_path(), text.encode())
+
+
+# -----------------------------------------------------------------------------------------------
+# the simulated desk's loop
+
+
+def build_sim_loop(seed: int = 0, vibration: bool = False):
+    """(AssistLoop, ready pose) on the simulated desk: the still lift panel of ``deskarm
+    assist-trials`` (its first trial's place), the ``assistive_5dof`` arm at its ready pose."""
+    import numpy as np
+
+    from app.cli_assist import AssistTrials, trial_scene
+
+    trials = AssistTrials("touch", vibration=vibration, seed=seed)
+    trials.desk.set_scenario(trial_scene(np.random.default_rng([int(seed), 0, 12])))
+    loop = trials.loop
+    loop.render_always = True
+    loop.reset(trials.ready_q, 0.0)
+    return loop, trials.ready_q
+
+
+class AssistWorker(QtCore.QThread):
+    """Runs an AssistLoop: commands in (select, e-stop, re-arm), frames and state changes out.
+
+    Signals (emitted from the worker's thread, received queued in the GUI thread):
+    - sigBoxes(list[(x, y, w, h)]): the boxes offered to choose from (after start, after a return)
+    - sigStatus(LoopStatus): the loop's state changed (or its outcome)
+    - sigFrame(): a new image is waiting in ``take_frame()`` (sent again only after a take)
+    - sigError(str): the loop could not be built or failed; the worker has ended
+    """
+
+    sigBoxes = QtCore.Signal(object)
+    sigStatus = QtCore.Signal(object)
+    sigFrame = QtCore.Signal()
+    sigError = QtCore.Signal(str)
+
+    def __init__(self, loop_factory: Callable[[], tuple], clock: str = "sim", parent=None):
+        super().__init__(parent)
+        if clock not in ("sim", "wall"):
+            raise ValueError(f"worker clock {clock!r}: use 'sim' (as fast as possible) or 'wall' (real time)")
+        self.setObjectName("AssistWorker")
+        self._factory = loop_factory
+        self.clock = clock
+        self._commands: "queue.SimpleQueue[tuple]" = queue.SimpleQueue()
+        self._wake = threading.Event()
+        self._running = threading.Event()
+        self._frame_lock = threading.Lock()
+        self._frame = None
+        self._frame_pending = False
+        self.loop = None
+        self.ready_q = None
+        self.engaged = False
+        self.last_command = None  # the latest JointCommand (what a bridge would be sent)
+        self.selections: list[int] = []  # every index the loop was asked to go to
+
+    # -- from the GUI thread ---------------------------------------------------------------------
+
+    def start(self, *args) -> None:  # noqa: D102
+        self._running.set()
+        super().start(*args)
+
+    def _send(self, command: tuple) -> None:
+        self._commands.put(command)
+        self._wake.set()
+
+    def select(self, index: int) -> None:
+        """Go to offered box ``index`` (0-based)."""
+        self._send(("select", int(index)))
+
+    def emergency_stop(self) -> None:
+        """The arm holds; the choice is cancelled; nothing moves until ``rearm``."""
+        self._send(("estop",))
+
+    def rearm(self) -> None:
+        """Resume after an e-stop: the arm goes back to its ready pose, then a new choice."""
+        self._send(("rearm",))
+
+    def take_frame(self):
+        """(the newest image (BGR), its LoopStatus) or (None, None); allows the next sigFrame."""
+        with self._frame_lock:
+            frame, self._frame, self._frame_pending = self._frame, None, False
+            return frame if frame is not None else (None, None)
+
+    def stop(self) -> None:
+        """End the loop and join the thread."""
+        self._running.clear()
+        self._send(("quit",))
+        if not self.wait(10000):
+            self.terminate()
+            self.wait()
+
+    # -- the thread ------------------------------------------------------------------------------
+
+    def _publish(self, frame, status=None) -> None:
+        if frame is None:
+            return
+        with self._frame_lock:
+            self._frame = (frame.image, status)
+            if self._frame_pending:
+                return
+            self._frame_pending = True
+        self.sigFrame.emit()
+
+    def _offer(self) -> None:
+        boxes = self.loop.offer()
+        self._publish(self.loop.last_frame)
+        self.sigBoxes.emit([tuple(float(v) for v in d.box) for d in boxes])
+
+    def _handle(self, command: tuple) -> None:
+        kind = command[0]
+        loop = self.loop
+        if kind == "select":
+            if self.engaged or loop.busy:
+                return  # the GUI never offers a choice then; a late command is dropped
+            self.selections.append(command[1])
+            loop.select(command[1])
+        elif kind == "estop":
+            self.engaged = True
+            loop.stop("stopped by the user")
+        elif kind == "rearm" and self.engaged:
+            self.engaged = False
+            loop.go_to(self.ready_q)
+
+    def run(self) -> None:  # noqa: D102 (QThread override)
+        try:
+            self.loop, self.ready_q = self._factory()
+            self._offer()
+            self._emit_status()
+            last = (self.loop.state, self.loop.fsm.outcome)
+            next_tick = time.monotonic()
+            while self._running.is_set():
+                loop = self.loop
+                idle = self.engaged or not loop.busy
+                try:  # commands: waited for when there is nothing to do, else only taken
+                    command = self._commands.get(timeout=0.2) if idle else self._commands.get_nowait()
+                except queue.Empty:
+                    command = None
+                if command is not None:
+                    if command[0] == "quit":
+                        break
+                    was = loop.state
+                    self._handle(command)
+                    if command[0] == "estop" or loop.state != was:
+                        self._emit_status()
+                        last = (loop.state, loop.fsm.outcome)
+                    continue
+                if idle:
+                    continue
+                was = loop.state
+                frame, self.last_command, status = loop.step()
+                self._publish(frame, status)
+                now = (loop.state, loop.fsm.outcome)
+                if now != last:
+                    self.sigStatus.emit(status)
+                    last = now
+                if was != "IDLE" and loop.state == "IDLE":
+                    if was == "RETURN":
+                        self._offer()  # back at the ready pose: a fresh choice
+                    else:
+                        loop.go_to(self.ready_q)  # pressed, lost or timed out: back to the ready pose
+                if self.clock == "wall":
+                    next_tick += loop.frame_dt_s
+                    delay = next_tick - time.monotonic()
+                    if delay > 0:
+                        self._wake.wait(delay)  # a paced wait that a command (or quit) cuts short
+                        self._wake.clear()
+                    else:
+                        next_tick = time.monotonic()
+        except Exception as exc:  # noqa: BLE001 — reported to the window instead of killing the thread silently
+            self.sigError.emit(f"the assistive loop stopped: {type(exc).__name__}: {exc}")
+
+    def _emit_status(self) -> None:
+        from core.motion.assist_loop import LoopStatus
+
+        loop = self.loop
+        self.sigStatus.emit(LoopStatus(loop.state, loop.t, loop.target_index, None, loop.fsm.outcome))
+
+
+# -----------------------------------------------------------------------------------------------
+# the settings dialog
+
+
+class SwitchSettingsDialog(StopDialog):
+    """Which key or mouse button is "next", "confirm" and the single switch; the long press; sound."""
+
+    def __init__(self, settings: AssistSettings, parent=None):
+        super().__init__(parent)
+        self.setWindowTitle("Switches")
+        self.settings = settings
+        form = QtWidgets.QFormLayout(self)
+        self.edits = {}
+        for role, label in (("next_switch", "2 switches: next"), ("confirm_switch", "2 switches: confirm"),
+                            ("single_switch", "1 switch")):
+            edit = QtWidgets.QLineEdit(", ".join(getattr(settings, role)))
+            edit.setMinimumHeight(TOUCH_PX)
+            edit.setToolTip("Comma-separated: key:Space, key:Return, key:F1 … or mouse:left, mouse:right, "
+                            "mouse:middle. Switch interfaces usually send Space or Enter.")
+            self.edits[role] = edit
+            form.addRow(label, edit)
+        self.long_press = QtWidgets.QDoubleSpinBox()
+        self.long_press.setRange(0.5, 5.0)
+        self.long_press.setSingleStep(0.5)
+        self.long_press.setSuffix(" s")
+        self.long_press.setValue(settings.long_press_s)
+        self.long_press.setStyleSheet(SPIN_STYLE)
+        form.addRow("Hold to stop / re-arm", self.long_press)
+        self.sound = QtWidgets.QCheckBox("Beep when the highlight moves")
+        self.sound.setChecked(settings.sound)
+        form.addRow(self.sound)
+        self.error = QtWidgets.QLabel("")
+        self.error.setWordWrap(True)
+        self.error.setStyleSheet("color: #d32f2f;")
+        form.addRow(self.error)
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
+                                             | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
+        buttons.setStyleSheet(BUTTON_STYLE)
+        buttons.accepted.connect(self._accept)
+        buttons.rejected.connect(self.reject)
+        form.addRow(buttons)
+
+    def result_settings(self) -> AssistSettings:
+        """The settings as edited (ValueError naming the problem when they are not valid)."""
+        switches = {role: tuple(n.strip() for n in edit.text().split(",") if n.strip())
+                    for role, edit in self.edits.items()}
+        return replace(self.settings, long_press_s=float(self.long_press.value()), sound=self.sound.isChecked(),
+                       **switches)
+
+    def _accept(self) -> None:
+        try:
+            self.settings = self.result_settings()
+        except ValueError as exc:
+            self.error.setText(str(exc))
+            return
+        self.accept()
+
+
+# -----------------------------------------------------------------------------------------------
+# the window
+
+
+def grown_boxes(boxes: list) -> list:
+    """The boxes drawn larger about their centres (up to BOX_GROWTH_MAX), never into a neighbour:
+    bigger targets for a shaky finger, the same centres."""
+    if not boxes:
+        return []
+    centres = [(x + w / 2, y + h / 2) for x, y, w, h in boxes]
+    out = []
+    for i, (x, y, w, h) in enumerate(boxes):
+        cx, cy = centres[i]
+        gaps = [max(abs(cx - ox), abs(cy - oy)) for j, (ox, oy) in enumerate(centres) if j != i]
+        size = max(w, h)
+        growth = BOX_GROWTH_MAX if not gaps else min(BOX_GROWTH_MAX, max(1.0, BOX_GAP_FRACTION * min(gaps) / size))
+        out.append((cx - w * growth / 2, cy - h * growth / 2, w * growth, h * growth))
+    return out
+
+
+class AssistWindow(QtWidgets.QMainWindow):
+    """The assistive view (see the module docstring). ``clock``: the time the scanning runs on
+    (time.monotonic; a test passes its own). ``loop_factory``/``worker_clock``: the AssistWorker's."""
+
+    sigStateText = QtCore.Signal(str)  # the state line changed (for tests and a log)
+
+    def __init__(self, loop_factory: Callable[[], tuple] = build_sim_loop, worker_clock: str = "wall",
+                 clock: Callable[[], float] = time.monotonic, settings_file: Optional[Path] = None,
+                 parent=None):
+        super().__init__(parent)
+        self.setWindowTitle("deskarm — assist")
+        self._clock = clock
+        self._settings_file = settings_file
+        self.settings, self.settings_warnings = load_assist_settings(settings_file)
+        self.boxes: list = []  # as offered (image px), numbered 1…
+        self.hit_boxes: list = []  # as drawn and hit-tested (grown)
+        self.status = None
+        self.engaged = False
+        self.ignored_taps = 0
+        self.state_text = ""
+        self._target: Optional[int] = None
+        self._scanner = None
+        self._down: Optional[dict] = None  # the switch held now: {name, role, t, fired, engaged_at_press}
+        self._build()
+        self.set_mode(self.settings.mode, save=False)
+        self.worker = AssistWorker(loop_factory, worker_clock, self)
+        self.worker.sigBoxes.connect(self._on_boxes)
+        self.worker.sigStatus.connect(self._on_status)
+        self.worker.sigFrame.connect(self._on_frame)
+        self.worker.sigError.connect(self._on_error)
+        self._scan_timer = QtCore.QTimer(self)
+        self._scan_timer.setInterval(SCAN_TICK_MS)
+        self._scan_timer.timeout.connect(self.scan_tick)
+        self._set_state_text("starting the arm…")
+
+    # -- layout -----------------------------------------------------------------------------------
+
+    def _build(self) -> None:
+        central = QtWidgets.QWidget()
+        self.setCentralWidget(central)
+        outer = QtWidgets.QVBoxLayout(central)
+        outer.setContentsMargins(6, 4, 6, 6)
+        outer.setSpacing(4)
+        top = QtWidgets.QHBoxLayout()
+        self.state_label = QtWidgets.QLabel("")
+        font = self.state_label.font()
+        font.setPointSize(22)
+        font.setBold(True)
+        self.state_label.setFont(font)
+        self.state_label.setStyleSheet("color: white; background: #202020; border-radius: 6px; padding: 2px 10px;")
+        self.state_label.setMinimumWidth(200)
+        self.state_label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Preferred)
+        top.addWidget(self.state_label, 1)
+        self.rearm_button = RearmButton()
+        self.rearm_button.hide()
+        self.rearm_button.sigHeld.connect(self.rearm)
+        top.addWidget(self.rearm_button)
+        self.stop_button = EStopButton()
+        self.stop_button.sigStopRequested.connect(self.emergency_stop)
+        top.addWidget(self.stop_button)
+        outer.addLayout(top)
+        middle = QtWidgets.QHBoxLayout()
+        self.view = AssistView()
+        self.view.sigPressed.connect(self._on_view_pressed)
+        self.view.sigReleased.connect(self._on_view_released)
+        middle.addWidget(self.view, 1)
+        side = QtWidgets.QVBoxLayout()
+        side.setSpacing(6)
+        self.mode_buttons = {}
+        group = QtWidgets.QButtonGroup(self)
+        group.setExclusive(True)
+        mode_font = QtGui.QFont(self.font())
+        mode_font.setPointSize(13)
+        for mode in MODES:
+            b = QtWidgets.QPushButton(MODE_NAMES[mode])
+            b.setCheckable(True)
+            b.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+            b.setStyleSheet(BUTTON_STYLE)
+            b.setFont(mode_font)
+            b.clicked.connect(lambda _=False, m=mode: self.set_mode(m))
+            group.addButton(b)
+            self.mode_buttons[mode] = b
+            side.addWidget(b)
+        period_label = QtWidgets.QLabel("Scan every")
+        period_label.setFont(mode_font)
+        side.addWidget(period_label)
+        self.period_spin = QtWidgets.QDoubleSpinBox()
+        self.period_spin.setRange(MIN_PERIOD_S, MAX_PERIOD_S)
+        self.period_spin.setSingleStep(0.5)
+        self.period_spin.setDecimals(1)
+        self.period_spin.setSuffix(" s")
+        self.period_spin.setValue(self.settings.scan_period_s)
+        self.period_spin.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+        self.period_spin.setStyleSheet(SPIN_STYLE)
+        self.period_spin.setFont(mode_font)
+        self.period_spin.valueChanged.connect(self.set_scan_period)
+        side.addWidget(self.period_spin)
+        self.settings_button = QtWidgets.QPushButton("Switches…")
+        self.settings_button.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+        self.settings_button.setStyleSheet(BUTTON_STYLE)
+        self.settings_button.setFont(mode_font)
+        self.settings_button.clicked.connect(self.open_settings)
+        side.addWidget(self.settings_button)
+        self.hint_label = QtWidgets.QLabel("")
+        self.hint_label.setWordWrap(True)
+        hint_font = QtGui.QFont(self.font())
+        hint_font.setPointSize(11)
+        self.hint_label.setFont(hint_font)
+        self.hint_label.setAlignment(QtCore.Qt.AlignmentFlag.AlignTop)
+        side.addWidget(self.hint_label, 1)
+        side_widget = QtWidgets.QWidget()
+        side_widget.setLayout(side)
+        side_widget.setFixedWidth(190)
+        middle.addWidget(side_widget)
+        outer.addLayout(middle, 1)
+        self.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+
+    # -- life cycle -------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        self.worker.start()
+        self._scan_timer.start()
+
+    def stop(self) -> None:
+        """Stop the scan timer and the worker (joined)."""
+        self._scan_timer.stop()
+        if self.worker.isRunning():
+            self.worker.stop()
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
+        self.stop()
+        super().closeEvent(event)
+
+    # -- settings ---------------------------------------------------------------------------------
+
+    def _save(self) -> None:
+        try:
+            save_assist_settings(self.settings, self._settings_file)
+        except OSError as exc:
+            self.hint_label.setText(str(exc))
+
+    def set_mode(self, mode: str, save: bool = True) -> None:
+        """Switch the input mode (touch, scan2, scan1); any scan starts over."""
+        if mode not in MODES:
+            raise ValueError(f"assist mode {mode!r}: use one of {', '.join(MODES)}")
+        self.settings = replace(self.settings, mode=mode)
+        self.mode_buttons[mode].setChecked(True)
+        self.period_spin.setEnabled(mode == "scan1")
+        self._down = None
+        self._restart_scan()
+        self._update_hint()
+        if save:
+            self._save()
+
+    def set_scan_period(self, period_s: float) -> None:
+        period_s = min(MAX_PERIOD_S, max(MIN_PERIOD_S, float(period_s)))
+        self.settings = replace(self.settings, scan_period_s=period_s)
+        if abs(self.period_spin.value() - period_s) > 1e-9:
+            self.period_spin.setValue(period_s)
+        self._restart_scan()
+        self._save()
+
+    def set_settings(self, settings: AssistSettings) -> None:
+        self.settings = settings
+        self.set_mode(settings.mode)
+
+    def open_settings(self) -> None:
+        dialog = SwitchSettingsDialog(self.settings, self)
+        dialog.sigStopRequested.connect(self.emergency_stop)
+        if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
+            self.set_settings(dialog.settings)
+
+    def _update_hint(self) -> None:
+        s = self.settings
+        names = lambda t: " / ".join(n.split(":", 1)[1] for n in t)  # noqa: E731
+        hold = f"Hold {s.long_press_s:g} s: stop (again: re-arm)."
+        text = {"touch": "Tap a numbered box.",
+                "scan2": f"Next: {names(s.next_switch)}.\nGo: {names(s.confirm_switch)}.\n{hold}",
+                "scan1": f"Press {names(s.single_switch)} when your box is yellow.\n{hold}"}[s.mode]
+        self.hint_label.setText(text)
+
+    # -- what the worker says ---------------------------------------------------------------------
+
+    @property
+    def choosing(self) -> bool:
+        """True when a choice may be made: boxes offered, the arm idle, not stopped."""
+        return bool(self.boxes) and not self.engaged and (self.status is None or self.status.state == "IDLE") \
+            and self._target is None
+
+    def _on_boxes(self, boxes: list) -> None:
+        self.boxes = list(boxes)
+        self.hit_boxes = grown_boxes(self.boxes)
+        self.view.set_boxes(self.hit_boxes)
+        self.view.set_chosen(None)
+        self._target = None
+        self._restart_scan()
+        if not self.engaged:
+            self._set_state_text("choose a button" if self.boxes else "no buttons in view")
+
+    def _on_frame(self) -> None:
+        image, status = self.worker.take_frame()
+        if image is not None:
+            self.view.set_image(image)
+        if status is not None and status.state in ("ALIGN", "APPROACH", "ACT") and not self.engaged:
+            self.view.set_follow(status.centre_px, status.radius_px)
+
+    def _on_error(self, message: str) -> None:
+        self._set_state_text("error")
+        self.hint_label.setText(message)
+
+    def _on_status(self, status) -> None:
+        previous = self.status
+        self.status = status
+        n = None if status.target_index is None else status.target_index + 1
+        if self.engaged:  # a state change queued before the stop reached the worker: the stop wins
+            self._set_state_text("stopped")
+        elif status.state in ("ALIGN", "APPROACH", "ACT"):
+            self._target = status.target_index
+            self.view.set_chosen(status.target_index, status.centre_px)
+            self.view.set_highlight(None)
+            verb = {"ALIGN": "aligning with", "APPROACH": "approaching", "ACT": "pressing"}[status.state]
+            self._set_state_text(f"{verb} {n}")
+        elif status.state in ("IDLE", "RETURN") and previous is not None and previous.state in ("ALIGN", "APPROACH", "ACT"):
+            outcome = status.outcome or ""
+            if outcome.startswith(("pressed", "touched")):
+                self._set_state_text(f"done: {n} pressed")
+            else:
+                self._set_state_text(f"could not reach {n}: {outcome.split(':')[0]}")
+            self.view.set_chosen(None)
+        elif status.state == "RETURN" and not self.state_text.startswith(("done", "could not")):
+            self._set_state_text("going back")
+
+    def _set_state_text(self, text: str) -> None:
+        if text == self.state_text:
+            return
+        self.state_text = text
+        self.state_label.setText(text)
+        self.sigStateText.emit(text)
+
+    # -- stop and re-arm --------------------------------------------------------------------------
+
+    def emergency_stop(self) -> None:
+        """STOP: the arm holds, any choice is cancelled; RE-ARM (a hold) resumes."""
+        self.engaged = True
+        self.worker.emergency_stop()
+        self.stop_button.set_engaged(True)
+        self.rearm_button.show()
+        self._target = None
+        self._scanner = None
+        self.boxes, self.hit_boxes = [], []  # stale once the arm has moved: offered again after the re-arm
+        self.view.set_boxes([])
+        self.view.set_highlight(None)
+        self.view.set_chosen(None)
+        self._set_state_text("stopped")
+
+    def rearm(self) -> None:
+        if not self.engaged:
+            return
+        self.engaged = False
+        self.boxes = []
+        self.worker.rearm()
+        self.stop_button.set_engaged(False)
+        self.rearm_button.hide()
+        self._set_state_text("going back")
+
+    # -- choosing ---------------------------------------------------------------------------------
+
+    def _restart_scan(self) -> None:
+        self._scanner = None
+        self.view.set_highlight(None)
+        if not self.choosing or self.settings.mode == "touch":
+            return
+        if self.settings.mode == "scan2":
+            self._scanner = TwoSwitchScanner(len(self.boxes))
+            self.view.set_highlight(0)
+        else:
+            self._scanner = OneSwitchScanner(len(self.boxes), self.settings.scan_period_s, self.settings.long_press_s)
+            self.view.set_highlight(self._scanner.start(self._clock()).index)
+
+    def _choose(self, index: int) -> None:
+        if not self.choosing:
+            return
+        self._target = index
+        self._scanner = None
+        self.view.set_highlight(None)
+        self.view.set_chosen(index)
+        self._set_state_text(f"aligning with {index + 1}")
+        self.worker.select(index)
+
+    def _moved_highlight(self, index: int) -> None:
+        self.view.set_highlight(index)
+        if self.settings.sound:
+            QtWidgets.QApplication.beep()
+
+    def tap(self, image_point: Optional[tuple[float, float]]) -> None:
+        """Touch mode: a tap at an image point (None: beside the image)."""
+        if not self.choosing:
+            if image_point is not None:
+                self.view.acknowledge(image_point)
+            return
+        if image_point is None:
+            self.ignored_taps += 1
+            return
+        event = TouchSelector(self.hit_boxes).tap(image_point[0], image_point[1], self._clock())
+        if event.kind == "select":
+            self._choose(event.index)
+        else:
+            self.ignored_taps += 1
+            self.view.acknowledge(image_point)
+
+    def _role(self, name: str) -> Optional[str]:
+        s = self.settings
+        if s.mode == "scan1":
+            return "single" if name in s.single_switch else None
+        if s.mode == "scan2":
+            if name in s.next_switch:
+                return "next"
+            if name in s.confirm_switch:
+                return "confirm"
+        return None
+
+    def switch_down(self, name: str) -> bool:
+        """A switch went down (key or mouse button by name); True when it is mapped."""
+        role = self._role(name)
+        if role is None or self._down is not None:
+            return role is not None
+        now = self._clock()
+        self._down = {"name": name, "role": role, "t": now, "fired": False, "engaged_at_press": self.engaged}
+        if role == "single" and isinstance(self._scanner, OneSwitchScanner):
+            self._scan_events(self._scanner.press(now))
+        return True
+
+    def switch_up(self, name: str) -> bool:
+        """The switch came up: a short press acts (next, confirm, select), a long one already did."""
+        down = self._down
+        if down is None or down["name"] != name:
+            return self._role(name) is not None
+        now = self._clock()
+        self._check_hold(now)
+        self._down = None
+        if isinstance(self._scanner, OneSwitchScanner) and down["role"] == "single":
+            events = self._scanner.release(now)
+            if not down["fired"]:
+                self._scan_events(events)
+            return True
+        if down["fired"] or not self.choosing or not isinstance(self._scanner, TwoSwitchScanner):
+            return True
+        if down["role"] == "next":
+            self._moved_highlight(self._scanner.next(now).index)
+        elif down["role"] == "confirm":
+            self._choose(self._scanner.confirm(now).index)
+        return True
+
+    def _check_hold(self, now: float) -> None:
+        """A switch held for long_press_s: stop (or, when the press began stopped, re-arm)."""
+        down = self._down
+        if down is None or down["fired"] or now - down["t"] < self.settings.long_press_s:
+            return
+        down["fired"] = True
+        if down["engaged_at_press"]:
+            self.rearm()
+        else:
+            self.emergency_stop()
+
+    def _scan_events(self, events) -> None:
+        for event in events:
+            if event.kind == "highlight":
+                self._moved_highlight(event.index)
+            elif event.kind == "select":
+                self._choose(event.index)
+            # "stop": handled by _check_hold, the same for every switch mode
+
+    def scan_tick(self) -> None:
+        """The timed scan and the long-press hold, at the window's clock (SCAN_TICK_MS)."""
+        now = self._clock()
+        self._check_hold(now)
+        if isinstance(self._scanner, OneSwitchScanner) and self.choosing:
+            self._scan_events(self._scanner.tick(now))
+
+    # -- events -----------------------------------------------------------------------------------
+
+    def _on_view_pressed(self, name: str, point) -> None:
+        if self.settings.mode == "touch":
+            if name == "mouse:left":
+                self.tap(point)
+            return
+        self.switch_down(name)
+
+    def _on_view_released(self, name: str) -> None:
+        if self.settings.mode != "touch":
+            self.switch_up(name)
+
+    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
+        if event.key() == QtCore.Qt.Key.Key_Escape:
+            event.accept()
+            self.emergency_stop()
+            return
+        if event.isAutoRepeat():
+            event.accept() if self._role(key_switch_name(event)) else super().keyPressEvent(event)
+            return
+        if self.switch_down(key_switch_name(event)):
+            event.accept()
+            return
+        super().keyPressEvent(event)
+
+    def keyReleaseEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
+        if event.isAutoRepeat():
+            event.accept()
+            return
+        if self.switch_up(key_switch_name(event)):
+            event.accept()
+            return
+        super().keyReleaseEvent(event)
+
+
+def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False) -> int:
+    """Open the assistive view on the simulated desk (wall clock) and run until it is closed."""
+    from app.startup import make_app
+
+    app = make_app()
+    window = AssistWindow(lambda: build_sim_loop(seed, vibration), worker_clock="wall")
+    app.aboutToQuit.connect(window.stop)
+    screen = app.primaryScreen()
+    free = screen.availableGeometry() if screen is not None else None
+    if free is not None and free.width() <= size[0] and free.height() <= size[1]:
+        window.showFullScreen()  # the 7" 800x480 panel: all of it, no title bar
+    else:
+        window.resize(*size)
+        window.show()
+    window.start()
+    return app.exec()

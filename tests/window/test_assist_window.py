@@ -1,0 +1,224 @@
+"""The assistive view (issue 12, part 4): the three input modes drive the approach on the simulated
+panel (pytest-qt, offscreen). The worker runs the AssistLoop on the simulated clock (frames as fast
+as the CPU goes); the scanning runs on a fake clock the test moves, and ``scan_tick`` is called
+after each move (the window's timer does the same with the real clock). Tests wait on the window's
+signals and GUI-thread state, never sleep; every window's worker is stopped and joined.
+"""
+import pytest
+from PySide6 import QtCore
+
+from app.assist_window import (AssistSettings, AssistWindow, SwitchSettingsDialog, build_sim_loop, grown_boxes,
+                               load_assist_settings)
+from widgets._style import TOUCH_PX
+
+TIMEOUT_MS = 30_000  # one press is ~6.5 s of simulated time, ~2–6 s of CPU on a shared core
+SPACE, ENTER = QtCore.Qt.Key.Key_Space, QtCore.Qt.Key.Key_Return
+LEFT = QtCore.Qt.MouseButton.LeftButton
+_SIM = {}
+
+
+def sim_loop():
+    """The simulated desk's loop, built once per test session (0.5 s) and reset for each window."""
+    if not _SIM:
+        _SIM["loop"], _SIM["q"] = build_sim_loop(0)
+    _SIM["loop"].reset(_SIM["q"], 0.0)
+    return _SIM["loop"], _SIM["q"]
+
+
+class FakeClock:
+    def __init__(self):
+        self.t = 100.0
+
+    def __call__(self):
+        return self.t
+
+
+@pytest.fixture
+def make_window(qtbot):
+    windows = []
+
+    def make(mode="touch", **settings):
+        clock = FakeClock()
+        w = AssistWindow(sim_loop, worker_clock="sim", clock=clock)
+        w.set_settings(AssistSettings(mode=mode, **settings))
+        w._scan_timer.setInterval(3_600_000)  # the test ticks the scan itself (on the fake clock)
+        qtbot.addWidget(w)
+        w.resize(800, 480)
+        w.show()
+        texts = []
+        w.sigStateText.connect(texts.append)
+        w.start()
+        qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)
+        windows.append(w)
+        return w, clock, texts
+
+    yield make
+    for w in windows:
+        w.stop()
+        assert w.worker.isFinished() and not w.worker.isRunning()
+
+
+def wait_for_press(qtbot, w, texts, number):
+    """The state line goes aligning → approaching → pressing → done, and the FSM logged the same."""
+    qtbot.waitUntil(lambda: f"done: {number} pressed" in texts, timeout=TIMEOUT_MS)
+    i = texts.index(f"aligning with {number}")
+    assert texts[i:i + 4] == [f"aligning with {number}", f"approaching {number}", f"pressing {number}",
+                              f"done: {number} pressed"]
+    log = w.worker.loop.fsm.event_log()
+    assert [e["to"] for e in log] == ["ALIGN", "APPROACH", "ACT", "IDLE"]
+    assert log[0]["reason"] == f"target chosen: box {number}" and log[-1]["reason"].startswith("pressed")
+    assert w.worker.selections == [number - 1]
+    qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)  # back at the ready pose, a new choice
+
+
+def click_image_point(qtbot, w, point):
+    qtbot.mouseClick(w.view, LEFT, pos=w.view.to_widget(point).toPoint())
+
+
+def test_touch_a_tap_outside_every_box_is_ignored_and_a_tap_on_7_presses_it(make_window, qtbot):
+    w, _, texts = make_window("touch")
+    assert len(w.boxes) == 9
+    click_image_point(qtbot, w, (20.0, 460.0))  # the desk, far from the panel
+    assert w.ignored_taps == 1 and w.view.ack_visible
+    assert w.worker.selections == [] and w.choosing
+    qtbot.waitUntil(lambda: not w.view.ack_visible, timeout=5_000)  # the acknowledgement is brief
+    x, y, bw, bh = w.hit_boxes[6]
+    click_image_point(qtbot, w, (x + bw / 2, y + bh / 2))
+    wait_for_press(qtbot, w, texts, 7)
+
+
+def test_two_switches_next_moves_the_highlight_and_confirm_presses(make_window, qtbot):
+    w, _, texts = make_window("scan2")
+    assert w.view.highlight == 0
+    seen = []
+    for _ in range(6):
+        qtbot.keyClick(w, SPACE)
+        seen.append(w.view.highlight)
+    assert seen == [1, 2, 3, 4, 5, 6] and w.worker.selections == []
+    qtbot.keyClick(w, ENTER)
+    wait_for_press(qtbot, w, texts, 7)
+
+
+def test_one_switch_timed_scanning_and_one_press(make_window, qtbot):
+    w, clock, texts = make_window("scan1", scan_period_s=1.0)
+    assert w.view.highlight == 0
+    seen = []
+    for _ in range(6):
+        clock.t += 1.0
+        w.scan_tick()
+        seen.append(w.view.highlight)
+    assert seen == [1, 2, 3, 4, 5, 6] and w.worker.selections == []
+    clock.t += 0.3  # the user reacts …
+    qtbot.keyPress(w, SPACE)
+    clock.t += 0.15  # … and presses briefly
+    qtbot.keyRelease(w, SPACE)
+    wait_for_press(qtbot, w, texts, 7)
+
+
+def test_one_switch_long_press_stops_the_arm_and_a_second_hold_re_arms(make_window, qtbot):
+    w, clock, texts = make_window("scan1", scan_period_s=1.0)
+    for _ in range(2):
+        clock.t += 1.0
+        w.scan_tick()
+    qtbot.keyPress(w, SPACE)
+    clock.t += 0.1
+    qtbot.keyRelease(w, SPACE)  # box 3 chosen: the arm starts
+    assert w.state_text == "aligning with 3"
+    qtbot.keyPress(w, SPACE)  # at once: the long press
+    clock.t += 1.0
+    w.scan_tick()
+    assert not w.engaged  # not long enough yet
+    clock.t += 0.6
+    w.scan_tick()
+    assert w.engaged and w.stop_button.engaged and w.state_text == "stopped"
+    qtbot.keyRelease(w, SPACE)
+    loop = w.worker.loop
+    qtbot.waitUntil(lambda: w.worker.engaged and loop.state == "IDLE", timeout=TIMEOUT_MS)
+    log = loop.fsm.event_log()
+    assert log[0]["to"] == "ALIGN" and log[-1]["to"] == "IDLE" and log[-1]["reason"] == "stopped by the user"
+    assert "ACT" not in [e["to"] for e in log]  # stopped before any press
+    assert not w.choosing  # nothing can be chosen while stopped
+    qtbot.keyClick(w, SPACE)  # a short press while stopped does nothing
+    assert w.engaged
+    qtbot.keyPress(w, SPACE)  # hold again: re-arm
+    clock.t += 1.6
+    w.scan_tick()
+    qtbot.keyRelease(w, SPACE)
+    assert not w.engaged and not w.stop_button.engaged
+    qtbot.waitUntil(lambda: w.choosing and w.state_text == "choose a button", timeout=TIMEOUT_MS)
+
+
+def test_a_long_press_with_nothing_moving_is_a_stop_too_and_esc_is_stop(make_window, qtbot):
+    w, clock, _ = make_window("scan2")
+    qtbot.keyPress(w, ENTER)
+    clock.t += 1.6
+    w.scan_tick()
+    qtbot.keyRelease(w, ENTER)
+    assert w.engaged and w.worker.selections == []  # the long confirm did not also confirm
+    w.rearm()
+    qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)
+    qtbot.keyClick(w, QtCore.Qt.Key.Key_Escape)
+    assert w.engaged and w.rearm_button.isVisible()
+
+
+@pytest.mark.parametrize("mode", ["touch", "scan2", "scan1"])
+def test_the_window_fits_800x480_and_stop_is_always_reachable(make_window, qtbot, mode):
+    w, _, _ = make_window(mode)
+    hint = w.minimumSizeHint()
+    assert hint.width() <= 800 and hint.height() <= 480
+    assert w.width() == 800 and w.height() == 480
+    for engaged in (False, True):
+        if engaged:
+            qtbot.mouseClick(w.stop_button, LEFT)
+            assert w.engaged and w.rearm_button.isVisible()
+            assert w.rearm_button.height() >= TOUCH_PX
+        b = w.stop_button
+        assert b.isVisible() and b.height() >= TOUCH_PX and b.width() >= TOUCH_PX
+        top_left = b.mapTo(w, QtCore.QPoint(0, 0))
+        assert w.rect().contains(QtCore.QRect(top_left, b.size()))
+    for box in range(len(w.hit_boxes)):  # the boxes are drawn at least a fingertip wide
+        r = w.view.box_rect(box)
+        assert r.width() >= 30 and r.height() >= 30
+
+
+def test_the_scan_period_and_mode_are_remembered(make_window, qtbot):
+    w, _, _ = make_window("scan1")
+    w.set_scan_period(2.5)
+    settings, warnings = load_assist_settings()
+    assert settings.scan_period_s == 2.5 and settings.mode == "scan1" and warnings == []
+    w.set_scan_period(9.0)  # clamped to the 0.5…5 s range
+    assert load_assist_settings()[0].scan_period_s == 5.0
+
+
+def test_the_switch_mapping_is_editable_and_checked(make_window, qtbot):
+    w, _, texts = make_window("scan2")
+    dialog = SwitchSettingsDialog(w.settings, w)
+    qtbot.addWidget(dialog)
+    dialog.edits["next_switch"].setText("key:Return")  # the same as confirm: refused
+    dialog._accept()
+    assert "both 'next' and 'confirm'" in dialog.error.text() and dialog.result() == 0
+    dialog.edits["next_switch"].setText("key:N, mouse:right")
+    dialog._accept()
+    w.set_settings(dialog.settings)
+    assert load_assist_settings()[0].next_switch == ("key:N", "mouse:right")
+    qtbot.keyClick(w, QtCore.Qt.Key.Key_N)
+    assert w.view.highlight == 1
+    qtbot.keyClick(w, SPACE)  # no longer a switch
+    assert w.view.highlight == 1
+    qtbot.mouseClick(w.view, QtCore.Qt.MouseButton.RightButton)  # a mouse button as "next"
+    assert w.view.highlight == 2
+
+
+def test_grown_boxes_keep_their_centres_and_stay_apart():
+    boxes = [(0, 0, 20, 20), (40, 0, 20, 20), (200, 200, 10, 10)]
+    grown = grown_boxes(boxes)
+    for (x, y, w, h), (gx, gy, gw, gh) in zip(boxes, grown):
+        assert gx + gw / 2 == pytest.approx(x + w / 2) and gw >= w
+    assert grown[0][0] + grown[0][2] <= grown[1][0]  # no overlap between neighbours
+
+
+def test_cli_assist_refuses_another_robot_or_scene(capsys):
+    from app.cli import main
+
+    assert main(["--assist", "--scenario", "objects"]) == 2
+    assert "--assist runs the assistive_5dof arm" in capsys.readouterr().err
