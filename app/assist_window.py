@@ -80,15 +80,19 @@ class AssistSettings:
             bad = [n for n in names if not is_switch_name(n)]
             if bad or not names:
                 raise ValueError(f"{role} = {list(names)}: each switch is 'key:NAME' (a Qt key name such as "
-                                 f"key:Space, key:Return, key:F1) or one of mouse:left, mouse:right, mouse:middle")
+                                 f"key:Space, key:Return, key:F1), one of mouse:left, mouse:right, mouse:middle, "
+                                 f"gamepad:BTN_… (an evdev button, e.g. gamepad:BTN_SOUTH) or gpio:PIN (a "
+                                 f"Raspberry Pi BCM pin, e.g. gpio:17)")
         if set(self.next_switch) & set(self.confirm_switch):
             raise ValueError(f"{sorted(set(self.next_switch) & set(self.confirm_switch))} is both 'next' and "
                              f"'confirm': give the two switches different keys or buttons")
 
 
 def is_switch_name(name: str) -> bool:
-    """'key:<Qt key name>' or 'mouse:left|right|middle'."""
-    if name in ("mouse:left", "mouse:right", "mouse:middle"):
+    """'key:<Qt key name>', 'mouse:left|right|middle', 'gamepad:BTN_…' or 'gpio:PIN' (core.devices.switches)."""
+    from core.devices.switches import is_device_switch_name
+
+    if name in ("mouse:left", "mouse:right", "mouse:middle") or is_device_switch_name(name):
         return True
     if not name.startswith("key:") or len(name) <= 4:
         return False
@@ -98,6 +102,29 @@ def is_switch_name(name: str) -> bool:
 def key_switch_name(event: QtGui.QKeyEvent) -> str:
     """The switch name of a key event: 'key:Space', 'key:Return', 'key:A', …"""
     return "key:" + QtGui.QKeySequence(event.key()).toString()
+
+
+def with_switches(settings: AssistSettings, specs) -> AssistSettings:
+    """The settings with each ``SwitchSpec`` (``--switch NAME=ROLE``) added to its role's switches
+    (and taken out of the other 2-switch role, so next and confirm never share a switch)."""
+    roles = {"next": "next_switch", "confirm": "confirm_switch", "single": "single_switch"}
+    changes = {field: tuple(getattr(settings, field)) for field in roles.values()}
+    for spec in specs:
+        field = roles[spec.role]
+        if spec.name not in changes[field]:
+            changes[field] = changes[field] + (spec.name,)
+        other = {"next_switch": "confirm_switch", "confirm_switch": "next_switch"}.get(field)
+        if other:
+            changes[other] = tuple(n for n in changes[other] if n != spec.name)
+    return replace(settings, **changes)
+
+
+def device_switch_names(settings: AssistSettings) -> list[str]:
+    """The switches in the settings that need a source of their own (gamepad buttons, GPIO pins)."""
+    from core.devices.switches import is_device_switch_name
+
+    names = [n for role in ("next_switch", "confirm_switch", "single_switch") for n in getattr(settings, role)]
+    return sorted({n for n in names if is_device_switch_name(n)})
 
 
 def settings_path() -> Path:
@@ -158,6 +185,45 @@ def build_sim_loop(seed: int = 0, vibration: bool = False):
     loop.render_always = True
     loop.reset(trials.ready_q, 0.0)
     return loop, trials.ready_q
+
+
+def build_webcam_loop(device, bridge=None, depth: str = "auto", calibration=None, capture_factory=None):
+    """(AssistLoop, ready pose) on a real hand camera: webcam ``device`` on the ``assistive_5dof``
+    arm (``core.devices.hand_camera.WebcamHandCamera``), the circle detector and the servo of the
+    trials. Depth: "size" (the button's known size), "range" (the v2 board's HC-SR04 through
+    ``bridge.range_m``) or "auto" (the range when the board has a reading, else the size; with no
+    board or a board without ``range_m``, the size). The webcam may be missing: the loop runs on
+    black frames and the camera's ``status_message`` says why."""
+    from app.cli_assist import (APPROACH_SPEED_M_S, AXIS_TILT_RAD, DETECT_EVERY, FRAME_DT_S, MAX_LINEAR_SPEED_M_S,
+                                PRESS_DEPTH_M, SERVO_GAIN)
+    from core.detect.registry import make_detector
+    from core.devices.hand_camera import BridgeRangeSensor, WebcamHandCamera
+    from core.kinematics.clik import ClikKinematics
+    from core.kinematics.profile import load_profile
+    from core.motion.assist import AssistConfig
+    from core.motion.assist_loop import DEPTH_SOURCES, AssistLoop
+    from core.motion.servoing import IbvsConfig, IbvsController
+
+    if depth not in DEPTH_SOURCES:
+        raise ValueError(f"depth {depth!r}: use one of {', '.join(DEPTH_SOURCES)}")
+    has_range = bridge is not None and callable(getattr(bridge, "range_m", None))
+    if depth == "range" and not has_range:
+        raise ValueError("depth 'range' needs a v2 board with a range sensor (--bridge serial2://…); "
+                         "use depth 'size' or 'auto'")
+    if depth == "auto" and not has_range:
+        depth = "size"
+    kin = ClikKinematics(load_profile("assistive_5dof"))
+    camera = WebcamHandCamera(device, kin, calibration=calibration, capture_factory=capture_factory)
+    camera.connect(keep_trying=True)
+    servo = IbvsController(kin, camera.K, IbvsConfig(axis_tilt_rad=AXIS_TILT_RAD, gain=SERVO_GAIN,
+                                                      max_linear_speed_m_s=MAX_LINEAR_SPEED_M_S))
+    detector = make_detector("circles", max_objects=16, min_radius_px=12)
+    config = AssistConfig(press_depth_m=PRESS_DEPTH_M, approach_speed_m_s=APPROACH_SPEED_M_S)
+    ready_q = tuple(kin.q_home)
+    loop = AssistLoop(kin, camera, detector, servo, config, ready_q, depth_source=depth,
+                      range_sensor=BridgeRangeSensor(bridge) if depth != "size" else None,
+                      frame_dt_s=FRAME_DT_S, detect_every=DETECT_EVERY, render_always=True)
+    return loop, ready_q
 
 
 class AssistWorker(QtCore.QThread):
@@ -400,6 +466,7 @@ class AssistWindow(QtWidgets.QMainWindow):
     (time.monotonic; a test passes its own). ``loop_factory``/``worker_clock``: the AssistWorker's."""
 
     sigStateText = QtCore.Signal(str)  # the state line changed (for tests and a log)
+    sigDeviceSwitch = QtCore.Signal(str, bool)  # a gamepad / GPIO switch (name, pressed), from its thread
 
     def __init__(self, loop_factory: Callable[[], tuple] = build_sim_loop, worker_clock: str = "wall",
                  clock: Callable[[], float] = time.monotonic, settings_file: Optional[Path] = None,
@@ -418,6 +485,9 @@ class AssistWindow(QtWidgets.QMainWindow):
         self._target: Optional[int] = None
         self._scanner = None
         self._down: Optional[dict] = None  # the switch held now: {name, role, t, fired, engaged_at_press}
+        self.switch_sources: dict = {}  # device switch name → core.devices.switches.SwitchSource (running)
+        self.switch_messages: list[str] = []  # what the device switches say is wrong (shown in the hint)
+        self.sigDeviceSwitch.connect(self._on_device_switch, QtCore.Qt.ConnectionType.QueuedConnection)
         self._build()
         self.set_mode(self.settings.mode, save=False)
         self.worker = AssistWorker(loop_factory, worker_clock, self)
@@ -517,12 +587,50 @@ class AssistWindow(QtWidgets.QMainWindow):
     def start(self) -> None:
         self.worker.start()
         self._scan_timer.start()
+        self._start_switch_sources()
 
     def stop(self) -> None:
-        """Stop the scan timer and the worker (joined)."""
+        """Stop the scan timer, the switch sources and the worker (all joined)."""
         self._scan_timer.stop()
+        self._stop_switch_sources()
         if self.worker.isRunning():
             self.worker.stop()
+
+    # -- gamepad and GPIO switches ------------------------------------------------------------------
+
+    def _start_switch_sources(self) -> None:
+        """One source per gamepad / GPIO switch in the settings (others stopped); each press and
+        release reaches ``switch_down`` / ``switch_up`` in the GUI thread, as a key's would."""
+        from core.devices.switches import make_switch_source
+
+        wanted = set(device_switch_names(self.settings))
+        for name in [n for n in self.switch_sources if n not in wanted]:
+            self.switch_sources.pop(name).stop()
+        for name in sorted(wanted - set(self.switch_sources)):
+            source = make_switch_source(name, self.sigDeviceSwitch.emit)
+            self.switch_sources[name] = source
+            source.start()
+
+    def _stop_switch_sources(self) -> None:
+        for source in self.switch_sources.values():
+            source.stop()
+        self.switch_sources = {}
+
+    def _on_device_switch(self, name: str, pressed: bool) -> None:
+        if pressed:
+            self.switch_down(name)
+        else:
+            self.switch_up(name)
+
+    def check_switch_sources(self) -> None:
+        """Show what the gamepad / GPIO switches report (missing library, no device, …) in the hint."""
+        messages = [s.status_message for s in self.switch_sources.values() if s.status_message]
+        camera_message = getattr(getattr(self.worker.loop, "camera", None), "status_message", "")
+        if camera_message:  # a real hand camera unplugged (never a crash: the loop runs on black frames)
+            messages.insert(0, camera_message)
+        if messages != self.switch_messages:
+            self.switch_messages = messages
+            self._update_hint()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
         self.stop()
@@ -560,6 +668,8 @@ class AssistWindow(QtWidgets.QMainWindow):
     def set_settings(self, settings: AssistSettings) -> None:
         self.settings = settings
         self.set_mode(settings.mode)
+        if self.worker.isRunning():
+            self._start_switch_sources()
 
     def open_settings(self) -> None:
         dialog = SwitchSettingsDialog(self.settings, self)
@@ -574,6 +684,8 @@ class AssistWindow(QtWidgets.QMainWindow):
         text = {"touch": "Tap a numbered box.",
                 "scan2": f"Next: {names(s.next_switch)}.\nGo: {names(s.confirm_switch)}.\n{hold}",
                 "scan1": f"Press {names(s.single_switch)} when your box is yellow.\n{hold}"}[s.mode]
+        if self.switch_messages:
+            text += "\n\n" + "\n".join(self.switch_messages)
         self.hint_label.setText(text)
 
     # -- what the worker says ---------------------------------------------------------------------
@@ -771,6 +883,7 @@ class AssistWindow(QtWidgets.QMainWindow):
         """The timed scan and the long-press hold, at the window's clock (SCAN_TICK_MS)."""
         now = self._clock()
         self._check_hold(now)
+        self.check_switch_sources()
         if isinstance(self._scanner, OneSwitchScanner) and self.choosing:
             self._scan_events(self._scanner.tick(now))
 
@@ -810,12 +923,21 @@ class AssistWindow(QtWidgets.QMainWindow):
         super().keyReleaseEvent(event)
 
 
-def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False) -> int:
-    """Open the assistive view on the simulated desk (wall clock) and run until it is closed."""
+def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False,
+                      hand_camera=None, switches=(), depth: str = "auto") -> int:
+    """Open the assistive view (wall clock) and run until it is closed: on the simulated desk, or
+    with ``hand_camera`` (a webcam device: ``core.devices.hand_camera.parse_hand_camera_spec``) on a
+    real one. ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO / keys)."""
     from app.startup import make_app
 
     app = make_app()
-    window = AssistWindow(lambda: build_sim_loop(seed, vibration), worker_clock="wall")
+    if hand_camera is None:
+        factory = lambda: build_sim_loop(seed, vibration)  # noqa: E731
+    else:
+        factory = lambda: build_webcam_loop(hand_camera, depth=depth)  # noqa: E731
+    window = AssistWindow(factory, worker_clock="wall")
+    if switches:
+        window.set_settings(with_switches(window.settings, switches))
     app.aboutToQuit.connect(window.stop)
     screen = app.primaryScreen()
     free = screen.availableGeometry() if screen is not None else None

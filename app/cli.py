@@ -68,6 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="open the assistive view (choose a button by touch, two switches or one switch; the "
                         "eye-in-hand arm presses it) instead of the main window; implies --robot assistive_5dof "
                         "--scenario panel on the simulated desk (default size 800x480)")
+    p.add_argument("--hand-camera", default=None, metavar="SPEC",
+                   help="with --assist: the hand camera — webcam:N (e.g. webcam:2) or a /dev/v4l/by-id/… path as "
+                        "webcam:PATH; default: the simulated desk")
+    p.add_argument("--switch", action="append", default=[], metavar="NAME=ROLE",
+                   help="with --assist, repeatable: a switch and its role (next, confirm, single), added to the "
+                        "saved settings — gamepad:BTN_SOUTH=confirm (needs evdev), gpio:17=single (a Raspberry Pi "
+                        "pin, needs gpiozero), key:F1=next")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -132,9 +139,18 @@ def run_assist(args) -> int:
     except ValueError as exc:
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2
+    from core.devices.hand_camera import parse_hand_camera_spec
+    from core.devices.switches import parse_switch_spec
+
+    try:
+        hand_camera = None if args.hand_camera is None else parse_hand_camera_spec(args.hand_camera)
+        switches = [parse_switch_spec(spec) for spec in args.switch]
+    except ValueError as exc:
+        print(f"deskarm: {exc}", file=sys.stderr)
+        return 2
     from app.assist_window import run_assist_window
 
-    return run_assist_window(size)
+    return run_assist_window(size, hand_camera=hand_camera, switches=switches)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -147,6 +163,9 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.assist:
         return run_assist(args)
+    if args.hand_camera is not None or args.switch:
+        print("deskarm: --hand-camera and --switch belong to the assistive view: add --assist", file=sys.stderr)
+        return 2
     try:
         detectors = () if args.detector is None else tuple(parse_detector_list(args.detector))
     except ValueError as exc:

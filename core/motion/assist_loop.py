@@ -37,6 +37,10 @@ DETECTED_RADII_M = (0.0086, 0.011)
 DARK_FACE_LEVEL = 120  # grey level between the dark face (~40) and the chrome ring (~220)
 MIN_RADIUS_OF_MEDIAN = 0.6  # circles smaller than this fraction of the median radius are not offered
 RETURN_SPEED_RAD_S = 0.8  # go_to: the fastest joint's speed on the way back to a pose
+# where a target's depth comes from: the button's known size; the range sensor (None on a dropout);
+# "auto": the range sensor when it has a reading, else the known size (a real board whose HC-SR04
+# is absent, unplugged or out of range falls back frame by frame)
+DEPTH_SOURCES = ("size", "range", "auto")
 
 
 @dataclass
@@ -147,7 +151,8 @@ class AssistLoop:
     SimHandCamera``). ``kinematics``: ``camera_pose(q)`` (the camera's pose from the joints, no shake).
     ``detector``: a ``core.detect`` detector whose detections carry ``radius_px`` (circles).
     ``servo``: the ``IbvsController``; ``assist_config``: the FSM's ``AssistConfig``.
-    ``range_sensor`` (``measure(pose, t)`` → m or None) is needed with ``depth_source="range"``.
+    ``range_sensor`` (``measure(pose, t)`` → m or None) is needed with ``depth_source`` "range" or "auto"
+    (the range when it has a reading, else the known size; ``last_depth_source`` tells which).
     ``render_always``: render an image in every state (a display wants one; trials skip the
     frames nobody looks at).
     """
@@ -157,11 +162,13 @@ class AssistLoop:
                  frame_dt_s: float = FRAME_DT_S, detect_every: int = DETECT_EVERY, render_always: bool = False):
         from core.motion.assist import ApproachFsm
 
-        if depth_source not in ("size", "range"):
-            raise ValueError(f"depth source {depth_source!r}: use 'size' (the button's known size) or 'range' "
-                             f"(the ultrasonic sensor along the camera axis)")
-        if depth_source == "range" and range_sensor is None:
-            raise ValueError("depth source 'range' needs a range sensor: pass range_sensor=…, or use depth 'size'")
+        if depth_source not in DEPTH_SOURCES:
+            raise ValueError(f"depth source {depth_source!r}: use 'size' (the button's known size), 'range' "
+                             f"(the ultrasonic sensor along the camera axis) or 'auto' (the range when the "
+                             f"sensor has a reading, else the size)")
+        if depth_source in ("range", "auto") and range_sensor is None:
+            raise ValueError(f"depth source {depth_source!r} needs a range sensor: pass range_sensor=…, "
+                             f"or use depth 'size'")
         if not 0 < frame_dt_s <= 1.0:
             raise ValueError(f"frame_dt_s = {frame_dt_s} s: need 0 < dt ≤ 1 s")
         self.kin = kinematics
@@ -189,6 +196,7 @@ class AssistLoop:
         self._frame_no = 0
         self._seq = 0
         self._return_to: Optional[np.ndarray] = None
+        self.last_depth_source: Optional[str] = None  # "range" or "size": what gave the latest depth
 
     # -- before a choice ---------------------------------------------------------------------
 
@@ -263,10 +271,7 @@ class AssistLoop:
         self.target_index = int(index)
         self.fsm.start(t, f"box {index + 1}")
         self._follower = _Follower(self, frame.image, chosen, t)
-        if self.depth_source == "range":
-            depth = self._range_depth(chosen.centre_px, frame.base_T_camera, self.kin.camera_pose(self.q), t)
-        else:
-            depth = self._depth(frame.image, chosen.centre_px, chosen.radius_px)
+        depth = self._target_depth(frame, chosen.centre_px, chosen.radius_px, self.kin.camera_pose(self.q), t)
         self._obs = TargetObservation(tuple(chosen.centre_px), depth)
         self._follower.remember(chosen.centre_px, depth, self.kin.camera_pose(self.q))
         self.last_centre = np.array(chosen.centre_px, dtype=float)
@@ -318,10 +323,7 @@ class AssistLoop:
         if centre is None:
             self._obs = None
             return self._finish(frame, JointCommand)
-        if self.depth_source == "range":
-            depth = self._range_depth(centre, frame.base_T_camera, base_T_camera, self.t)
-        else:
-            depth = None if size is None else self._depth(frame.image, centre, size)
+        depth = self._target_depth(frame, centre, size, base_T_camera, self.t)
         self._obs = TargetObservation(tuple(centre), depth)
         self.last_centre = centre
         if size is not None:
@@ -339,6 +341,24 @@ class AssistLoop:
                                           None if err is None else (float(err[0]), float(err[1])), radius)
 
     # -- depth --------------------------------------------------------------------------------
+
+    def _target_depth(self, frame, centre_px, radius_px: Optional[float], base_T_camera: np.ndarray,
+                      t: float) -> Optional[float]:
+        """The followed button's depth by ``depth_source`` (``last_depth_source`` says which one
+        gave it: "range", "size" or None)."""
+        depth = None
+        self.last_depth_source = None
+        if self.depth_source in ("range", "auto"):
+            depth = self._range_depth(centre_px, frame.base_T_camera, base_T_camera, t)
+            if depth is not None:
+                self.last_depth_source = "range"
+                return depth
+            if self.depth_source == "range":
+                return None
+        if radius_px is not None:
+            depth = self._depth(frame.image, centre_px, radius_px)
+            self.last_depth_source = None if depth is None else "size"
+        return depth
 
     def _depth(self, image, centre_px, radius_px: float) -> Optional[float]:
         """The button's depth from its known size. The circle detector fits either the dark face's

@@ -4,6 +4,8 @@ as the CPU goes); the scanning runs on a fake clock the test moves, and ``scan_t
 after each move (the window's timer does the same with the real clock). Tests wait on the window's
 signals and GUI-thread state, never sleep; every window's worker is stopped and joined.
 """
+import sys
+
 import pytest
 from PySide6 import QtCore
 
@@ -222,3 +224,59 @@ def test_cli_assist_refuses_another_robot_or_scene(capsys):
 
     assert main(["--assist", "--scenario", "objects"]) == 2
     assert "--assist runs the assistive_5dof arm" in capsys.readouterr().err
+
+
+# -- gamepad and GPIO switches (core.devices.switches, fake evdev / gpiozero modules) ----------------
+
+def test_a_gamepad_confirm_selects_the_highlighted_box_in_scan2(make_window, qtbot, monkeypatch):
+    from tests.devices.test_switch_sources import BTN_SOUTH, FakeEvent, fake_evdev
+
+    evdev = fake_evdev()
+    monkeypatch.setitem(sys.modules, "evdev", evdev)
+    w, _, texts = make_window("scan2", confirm_switch=("key:Return", "gamepad:BTN_SOUTH"))
+    source = w.switch_sources["gamepad:BTN_SOUTH"]
+    assert source.wait_for(lambda s: s.connected)
+    qtbot.keyClick(w, SPACE)
+    qtbot.keyClick(w, SPACE)
+    assert w.view.highlight == 2 and w.worker.selections == []
+    evdev.events.put(FakeEvent(BTN_SOUTH, 1))
+    evdev.events.put(FakeEvent(BTN_SOUTH, 0))
+    qtbot.waitUntil(lambda: w.worker.selections == [2], timeout=TIMEOUT_MS)
+    assert "aligning with 3" in texts
+
+
+def test_a_gpio_single_switch_confirms_in_scan1(make_window, qtbot, monkeypatch):
+    from tests.devices.test_switch_sources import FakeButton, fake_gpiozero
+
+    monkeypatch.setitem(sys.modules, "gpiozero", fake_gpiozero())
+    w, clock, texts = make_window("scan1", scan_period_s=1.0, single_switch=("gpio:17",))
+    assert w.switch_sources["gpio:17"].wait_for(lambda s: s.connected)
+    for _ in range(3):
+        clock.t += 1.0
+        w.scan_tick()
+    assert w.view.highlight == 3
+    button = FakeButton.instances[0]
+    button.when_pressed()  # from gpiozero's thread in real life: queued to the GUI thread
+    qtbot.waitUntil(lambda: w._down is not None, timeout=TIMEOUT_MS)
+    clock.t += 0.15
+    button.when_released()
+    qtbot.waitUntil(lambda: w.worker.selections == [3], timeout=TIMEOUT_MS)
+    assert "aligning with 4" in texts
+
+
+def test_a_missing_switch_library_is_named_in_the_hint(make_window, qtbot, monkeypatch):
+    monkeypatch.setitem(sys.modules, "gpiozero", None)
+    w, _, _ = make_window("scan1", single_switch=("key:Space", "gpio:17"))
+    assert w.switch_sources["gpio:17"].wait_for(lambda s: "pip install gpiozero" in s.status_message)
+    w.scan_tick()
+    assert "pip install gpiozero" in w.hint_label.text()
+
+
+def test_switch_specs_from_the_cli_join_the_settings():
+    from app.assist_window import device_switch_names, with_switches
+    from core.devices.switches import parse_switch_spec
+
+    s = with_switches(AssistSettings(), [parse_switch_spec("gamepad:BTN_SOUTH=confirm"),
+                                         parse_switch_spec("gpio:17=single")])
+    assert "gamepad:BTN_SOUTH" in s.confirm_switch and "gpio:17" in s.single_switch
+    assert device_switch_names(s) == ["gamepad:BTN_SOUTH", "gpio:17"]
