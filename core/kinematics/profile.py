@@ -19,9 +19,13 @@ Kinds (``kind = ...``):
   the URDF's root and the tip frame — come from the URDF (limits in rad or m, velocities);
   optional ``[[joints]]`` entries, by name, narrow the limits or set ``home``,
   ``max_velocity`` and ``max_acceleration``. URDF mimic joints are not profile joints: their
-  values follow the joints they mimic (``core.kinematics.urdf``). ``umi_rtx`` and
-  ``assistive_5dof`` are URDF profiles, and ``load_profile("urdf:PATH", tip="FRAME")`` makes
-  one from any URDF file.
+  values follow the joints they mimic (``core.kinematics.urdf``). A URDF arm on hobby servos
+  gives each joint's entry the servo fields below (``servo_min_deg``, ``servo_max_deg``,
+  ``offset_deg``, ``direction``, optionally ``home_servo_deg`` — or ``home`` in rad — and
+  ``max_speed_deg_s``, default the URDF's velocity): its limits then follow from the servo range,
+  which must map inside the URDF's limits, and every joint needs a mapping or none does (the
+  servo bridges drive all joints). ``umi_rtx`` and ``assistive_5dof`` (servo-mapped) are URDF
+  profiles, and ``load_profile("urdf:PATH", tip="FRAME")`` makes one from any URDF file.
 
 A joint is either a hobby servo (``servo_min_deg``/``servo_max_deg``/``offset_deg``/
 ``direction``: its limits follow from the servo range) or a plain joint with ``lower``/``upper``
@@ -697,7 +701,10 @@ _JOINT_KEYS = (
     "home_servo_deg",
     "max_acceleration",
 )
-_URDF_JOINT_KEYS = ("name", "lower", "upper", "home", "max_velocity", "max_acceleration")
+_URDF_SERVO_KEYS = ("servo_min_deg", "servo_max_deg", "offset_deg", "direction", "home_servo_deg",
+                    "max_speed_deg_s")
+_URDF_JOINT_KEYS = ("name", "lower", "upper", "home", "max_velocity", "max_acceleration") + _URDF_SERVO_KEYS
+_URDF_LIMIT_TOLERANCE_RAD = 1e-9  # a servo range ending exactly on a URDF limit is inside it
 _URDF_GEOMETRY_KEYS = ("urdf", "tip", "camera_frame")
 _GRIPPER_KEYS = ("name", "min_m", "max_m", "max_speed_m_s")
 _DELTA_KEYS = _DELTA_LENGTHS + ("effector_radius_m", "tool_offset_m", "first_arm_azimuth_deg")
@@ -807,10 +814,23 @@ def _urdf_joints(rd: _Reader, chain, overrides: Any) -> tuple[JointSpec, ...]:
         if name in by_name:
             raise rd.fail(f"joints[{i}].name = {name!r} is used twice; joint names must be unique")
         by_name[name] = (i, table)
+    mapped = [cj.name for cj in chain.joints
+              if any(k in by_name.get(cj.name, (-1, {}))[1] for k in _URDF_SERVO_KEYS)]
+    if mapped and len(mapped) != len(chain.joints):
+        unmapped = [n for n in names if n not in mapped]
+        raise rd.fail(
+            f"joints {', '.join(mapped)} have a servo mapping but {', '.join(unmapped)}"
+            f" {'has' if len(unmapped) == 1 else 'have'} none; a servo board drives every joint or"
+            f" none — give each of {', '.join(unmapped)} a [[joints]] entry with servo_min_deg,"
+            " servo_max_deg, offset_deg and direction, or remove the servo fields everywhere"
+        )
     out = []
     for cj in chain.joints:
         i, table = by_name.get(cj.name, (-1, {}))
         path = f"joints[{i}]." if i >= 0 else f"URDF joint {cj.name!r}: "
+        if cj.name in mapped:
+            out.append(_urdf_servo_joint(rd, cj, table, path))
+            continue
         fields: dict[str, Any] = {
             "joint_type": cj.joint_type,
             "lower": rd.number(table, "lower", path, cj.lower),
@@ -836,6 +856,90 @@ def _urdf_joints(rd: _Reader, chain, overrides: Any) -> tuple[JointSpec, ...]:
             max_acceleration=None if accel is None else float(accel),
         ))
     return tuple(out)
+
+
+def _urdf_servo_joint(rd: _Reader, cj, table: Mapping[str, Any], path: str) -> JointSpec:
+    """A URDF joint driven by a hobby servo: the servo fields of its [[joints]] entry.
+
+    As for desk_rrr's joints, the limits follow from the servo range (servo_min_deg …
+    servo_max_deg through offset_deg and direction); that range must map inside the URDF's
+    limits. The home pose is ``home_servo_deg`` (servo degrees) or ``home`` (rad, converted);
+    the speed is ``max_speed_deg_s``, else ``max_velocity`` (rad/s), else the URDF's velocity.
+    """
+    if cj.joint_type != "revolute":
+        raise rd.fail(f"{path}a servo mapping needs a revolute joint; {cj.name!r} is {cj.joint_type} —"
+                      " remove its servo fields")
+    limits = [k for k in ("lower", "upper") if k in table]
+    if limits:
+        raise rd.fail(f"{path}{' and '.join(limits)} cannot be combined with a servo mapping: the limits"
+                      " follow from the servo range — narrow servo_min_deg/servo_max_deg instead")
+    for key in ("offset_deg", "direction"):
+        if key not in table:
+            raise rd.fail(f"{path}missing key {key} for the servo mapping of joint {cj.name!r}"
+                          " (servo_deg = offset_deg + direction * degrees(q))")
+    fields: dict[str, Any] = {
+        "servo_min_deg": rd.number(table, "servo_min_deg", path, SERVO_MIN_DEG),
+        "servo_max_deg": rd.number(table, "servo_max_deg", path, SERVO_MAX_DEG),
+        "offset_deg": rd.number(table, "offset_deg", path),
+        "direction": rd.number(table, "direction", path),
+        "max_speed_deg_s": 300.0,
+        "home_servo_deg": rd.number(table, "home_servo_deg", path, None),
+    }
+    speed = rd.number(table, "max_speed_deg_s", path, None)
+    velocity = rd.number(table, "max_velocity", path, None)
+    if speed is not None and velocity is not None:
+        raise rd.fail(f"{path}give max_speed_deg_s (deg/s) or max_velocity (rad/s), not both")
+    if speed is not None:
+        fields["max_speed_deg_s"] = speed
+    elif velocity is not None:
+        _check_range(rd.where, path + "max_velocity", velocity, 0.0, MAX_VELOCITY_LIMIT,
+                     lo_open=True, why="it must be > 0")
+        fields["max_speed_deg_s"] = math.degrees(velocity)
+    elif cj.max_velocity is not None:
+        fields["max_speed_deg_s"] = math.degrees(cj.max_velocity)
+    home = rd.number(table, "home", path, None)
+    if home is not None and fields["home_servo_deg"] is not None:
+        raise rd.fail(f"{path}give home (rad) or home_servo_deg (servo degrees), not both")
+    _check_joint(rd.where, path, fields)  # servo range, offset, direction, speed, home_servo_deg
+    if home is not None:
+        _check_range(rd.where, path + "home", home, -REVOLUTE_LIMIT_RAD, REVOLUTE_LIMIT_RAD)
+        fields["home_servo_deg"] = fields["offset_deg"] + fields["direction"] * math.degrees(home)
+        lo_deg, hi_deg = fields["servo_min_deg"], fields["servo_max_deg"]
+        if not lo_deg - 1e-9 <= fields["home_servo_deg"] <= hi_deg + 1e-9:
+            raise rd.fail(
+                f"{path}home = {home!r} rad is servo angle {fields['home_servo_deg']:.2f}°, outside the servo"
+                f" range {_fmt(lo_deg)}…{_fmt(hi_deg)}° — the home pose must lie inside the servo range"
+            )
+        fields["home_servo_deg"] = min(max(fields["home_servo_deg"], lo_deg), hi_deg)
+    accel = rd.number(table, "max_acceleration", path, None)
+    if accel is not None:
+        _check_range(rd.where, path + "max_acceleration", accel, 0.0, MAX_ACCELERATION_LIMIT,
+                     lo_open=True, why="it must be > 0")
+    joint = JointSpec(
+        name=cj.name,
+        servo_min_deg=float(fields["servo_min_deg"]),
+        servo_max_deg=float(fields["servo_max_deg"]),
+        offset_deg=float(fields["offset_deg"]),
+        direction=int(fields["direction"]),
+        max_speed_deg_s=float(fields["max_speed_deg_s"]),
+        home_servo_deg=None if fields["home_servo_deg"] is None else float(fields["home_servo_deg"]),
+        max_acceleration=None if accel is None else float(accel),
+    )
+    tol = _URDF_LIMIT_TOLERANCE_RAD
+    if joint.q_min < cj.lower - tol or joint.q_max > cj.upper + tol:
+        fit = sorted(joint.to_servo_deg(v) for v in (cj.lower, cj.upper))
+        fit_lo, fit_hi = max(SERVO_MIN_DEG, fit[0]), min(SERVO_MAX_DEG, fit[1])
+        hint = (f"e.g. servo_min_deg = {math.ceil(fit_lo * 10) / 10:g}, servo_max_deg ="
+                f" {math.floor(fit_hi * 10) / 10:g} with this offset_deg and direction"
+                if fit_lo < fit_hi else "change offset_deg so the servo range maps inside them")
+        raise rd.fail(
+            f"{path}the servo range {_fmt(joint.servo_min_deg)}…{_fmt(joint.servo_max_deg)}° of joint"
+            f" {cj.name!r} maps to q = {math.degrees(joint.q_min):.2f}…{math.degrees(joint.q_max):.2f}°"
+            f" ({joint.q_min:.4f}…{joint.q_max:.4f} rad), outside the URDF's limits"
+            f" {math.degrees(cj.lower):.2f}…{math.degrees(cj.upper):.2f}° ({cj.lower:g}…{cj.upper:g} rad);"
+            f" narrow the servo range or move offset_deg so it maps inside them ({hint})"
+        )
+    return joint
 
 
 def _parse_urdf_profile(

@@ -258,7 +258,7 @@ def test_a_channel_per_joint_and_servo_joints_are_required(profile):
     with pytest.raises(BridgeError, match="2 channels for the 3 joints"):
         PhidgetServoBridge("phidget://?channels=0,1", profile)
     with pytest.raises(BridgeError, match="without a servo mapping"):
-        PhidgetServoBridge("phidget://", load_profile("assistive_5dof"))
+        PhidgetServoBridge("phidget://", load_profile("umi_rtx"))
 
 
 # ---- library missing ---------------------------------------------------------------------
