@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import replace
 from typing import Optional
 
 import numpy as np
+import shiboken6
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.calibration_worker import CalibrationController
@@ -79,6 +81,28 @@ COMPACT_VIEW_PX = 420  # narrower camera views label markers by id and objects b
 PICK_TOLERANCE_HUE = 10  # "Pick colour": hue ± this (OpenCV's 0…179) around the tapped pixels
 NO_DETECTOR_HINT = "no object detector is on — switch one on in the Objects tab (e.g. hsv)"
 JOG_TICK_MS = 20  # a held jog key or button moves the target at 50 Hz (the control rate)
+
+
+class JogKeyFilter(QtCore.QObject):
+    """The application-wide event filter behind the jog keys: a small object of its own (not the
+    window), holding the window weakly and passing on only key and deactivation events. The
+    window itself as the filter made every event of the application a Python call on it, and one
+    arriving while the window was being destroyed ("pure virtual method called") aborted Python."""
+
+    _KINDS = (QtCore.QEvent.Type.KeyPress, QtCore.QEvent.Type.KeyRelease, QtCore.QEvent.Type.WindowDeactivate)
+
+    def __init__(self, window: "MainWindow"):
+        super().__init__()
+        self._window = weakref.ref(window)
+
+    def eventFilter(self, obj, event) -> bool:  # noqa: N802 (Qt override)
+        kind = event.type()
+        if kind not in self._KINDS:
+            return False
+        window = self._window()
+        if window is None or not shiboken6.isValid(window) or not shiboken6.isValid(obj):
+            return False
+        return window.jog_event(obj, event, kind)
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -508,7 +532,7 @@ class MainWindow(QtWidgets.QMainWindow):
         app = QtWidgets.QApplication.instance()
         if app is not None:  # a modal dialog takes the focus when it opens
             app.focusWindowChanged.connect(self.check_modal_dialog)
-            app.installEventFilter(self)  # jog keys, wherever the focus is in this window
+            app.installEventFilter(self._jog_key_filter)  # jog keys, wherever the focus is in this window
 
     def stop(self) -> None:
         app = QtWidgets.QApplication.instance()
@@ -517,7 +541,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 app.focusWindowChanged.disconnect(self.check_modal_dialog)
             except (RuntimeError, TypeError):
                 pass
-            app.removeEventFilter(self)
+            app.removeEventFilter(self._jog_key_filter)
         self._jog_stop()
         self._running = False
         self._redraw_timer.stop()
@@ -1230,6 +1254,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _build_jog(self) -> None:
         s = self.session
         self.jogger = Jogger(s.profile, s.kinematics, desk_margin_m=s.controller.workspace.desk_margin_m)
+        self._jog_key_filter = JogKeyFilter(self)
         self.jog_panel = JogPanel()
         self.jog_panel.set_joints(s.profile.joint_names)
         prm = self.jogger.params
@@ -1389,17 +1414,16 @@ class MainWindow(QtWidgets.QMainWindow):
         p = s.kinematics.fk(q) if joint_space else s.targeter.manual_target
         self.jog_panel.show_state(p, joint_display(s.profile, q), self._jog_note)
 
-    def eventFilter(self, obj, event) -> bool:  # noqa: N802 (Qt override)
-        """Jog keys anywhere in this window unless the focus is in a text field (installed on the
-        application in start(): a focused slider or tab bar would otherwise eat the arrows)."""
-        kind = event.type()
+    def jog_event(self, obj, event, kind) -> bool:
+        """A key or deactivation event seen by the application-wide ``JogKeyFilter``: jog keys
+        anywhere in this window unless the focus is in a text field (a focused slider or tab bar
+        would otherwise eat the arrows). True when the event is used up."""
         if kind in (QtCore.QEvent.Type.KeyPress, QtCore.QEvent.Type.KeyRelease):
-            if isinstance(obj, QtWidgets.QWidget) and obj.window() is self and self._jog_key(
-                    event, kind == QtCore.QEvent.Type.KeyPress):
-                return True
-        elif kind == QtCore.QEvent.Type.WindowDeactivate and obj is self:
-            self._jog_stop()  # a key released in another window never comes here
-        return super().eventFilter(obj, event)
+            return (isinstance(obj, QtWidgets.QWidget) and obj.window() is self
+                    and self._jog_key(event, kind == QtCore.QEvent.Type.KeyPress))
+        if obj is self:  # WindowDeactivate: a key released in another window never comes here
+            self._jog_stop()
+        return False
 
     def _jog_key(self, event: QtGui.QKeyEvent, pressed: bool) -> bool:
         """Handle one key event as a jog key; True when it was one (and is used up)."""

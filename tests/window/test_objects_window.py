@@ -208,7 +208,7 @@ def test_a_tap_with_pick_colour_adds_a_colour_that_finds_the_tapped_object(qtbot
                              for c in d.params.colours] == ["red"], timeout=TIMEOUT_MS)
     # results already on their way were computed with the seven colours: wait for one of red alone
     r = result_with(qtbot, window, lambda r: r.frame is not None and r.frame.truth is not None
-                    and labels(r) and labels(r) <= {"red"})
+                    and bool(labels(r)) and labels(r) <= {"red"})
     truth = next(o for o in r.frame.truth.objects if o.label == "purple disc")
     x, y = window.session.camera.rig.project("left", truth.base_p_centre)[0]
     panel.name_edit.setText("violet")
