@@ -390,6 +390,22 @@ def merge_detections(parts: Sequence[Detection]) -> Detection:
                      radius_px=float(radius), contour=hull)
 
 
+def _nearest_of_label(tracks, d: Detection, p: np.ndarray, taken: set, within_m: float) -> Optional["_ObjectTrack"]:
+    """The track of ``d``'s kind and label, not in ``taken``, whose last position is nearest to
+    ``p`` and closer than ``within_m``; None when there is none."""
+    best, best_dist = None, within_m
+    for track in tracks:
+        if track.key in taken or track.kind != d.kind or track.label != d.label:
+            continue
+        last = track.kf.position
+        if last is None:
+            continue
+        dist = float(np.linalg.norm(p - last))
+        if dist < best_dist:
+            best, best_dist = track, dist
+    return best
+
+
 class StereoObjectPerception:
     """Detections of any ``Detector`` in both views → matched pairs → robot_base points with ids.
 
@@ -921,26 +937,13 @@ class StereoObjectPerception:
     def _reacquire(self, t: float, d: Detection, p: np.ndarray, taken: set) -> Optional[_ObjectTrack]:
         """A confirmed track of this label within ``REACQUIRE_M`` of its last position, or one lost in
         the last ``LOST_KEEP_S`` — the nearest; None when there is none."""
-        best, best_dist = None, math.inf
-        for track in self.tracks.values():
-            if track.key in taken or track.kind != d.kind or track.label != d.label:
-                continue
-            last = track.kf.position
-            dist = math.inf if last is None else float(np.linalg.norm(p - last))
-            if dist < REACQUIRE_M and dist < best_dist:
-                best, best_dist = track, dist
+        best = _nearest_of_label(self.tracks.values(), d, p, taken, REACQUIRE_M)
         if best is not None:
             return best
         for object_id, (track, t_lost) in list(self.lost.items()):
             if t - t_lost > LOST_KEEP_S:
                 del self.lost[object_id]
-                continue
-            if track.key in taken or track.kind != d.kind or track.label != d.label:
-                continue
-            last = track.kf.position
-            dist = math.inf if last is None else float(np.linalg.norm(p - last))
-            if dist < LOST_REACQUIRE_M and dist < best_dist:
-                best, best_dist = track, dist
+        best = _nearest_of_label((track for track, _ in self.lost.values()), d, p, taken, LOST_REACQUIRE_M)
         if best is not None:
             del self.lost[best.object_id]
             best.missed = 0

@@ -755,6 +755,12 @@ def _parse_joint(rd: _Reader, table: Any, i: int) -> JointSpec:
         "home_servo_deg": rd.number(table, "home_servo_deg", path, None),
     }
     _check_joint(rd.where, path, fields)
+    return _servo_joint(rd, table, path, name, fields)
+
+
+def _servo_joint(rd: _Reader, table: Mapping[str, Any], path: str, name: str, fields: Mapping[str, Any]) -> JointSpec:
+    """A servo JointSpec from checked servo ``fields`` and the table's optional max_acceleration
+    (servo profiles and servo-mapped URDF joints alike)."""
     accel = rd.number(table, "max_acceleration", path, None)
     if accel is not None:
         _check_range(rd.where, path + "max_acceleration", accel, 0.0, MAX_ACCELERATION_LIMIT,
@@ -911,20 +917,7 @@ def _urdf_servo_joint(rd: _Reader, cj, table: Mapping[str, Any], path: str) -> J
                 f" range {_fmt(lo_deg)}…{_fmt(hi_deg)}° — the home pose must lie inside the servo range"
             )
         fields["home_servo_deg"] = min(max(fields["home_servo_deg"], lo_deg), hi_deg)
-    accel = rd.number(table, "max_acceleration", path, None)
-    if accel is not None:
-        _check_range(rd.where, path + "max_acceleration", accel, 0.0, MAX_ACCELERATION_LIMIT,
-                     lo_open=True, why="it must be > 0")
-    joint = JointSpec(
-        name=cj.name,
-        servo_min_deg=float(fields["servo_min_deg"]),
-        servo_max_deg=float(fields["servo_max_deg"]),
-        offset_deg=float(fields["offset_deg"]),
-        direction=int(fields["direction"]),
-        max_speed_deg_s=float(fields["max_speed_deg_s"]),
-        home_servo_deg=None if fields["home_servo_deg"] is None else float(fields["home_servo_deg"]),
-        max_acceleration=None if accel is None else float(accel),
-    )
+    joint = _servo_joint(rd, table, path, cj.name, fields)
     tol = _URDF_LIMIT_TOLERANCE_RAD
     if joint.q_min < cj.lower - tol or joint.q_max > cj.upper + tol:
         fit = sorted(joint.to_servo_deg(v) for v in (cj.lower, cj.upper))
