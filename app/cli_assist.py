@@ -78,6 +78,17 @@ def build_parser() -> argparse.ArgumentParser:
 # the scene
 
 
+def nominal_ready_pose(kin, K) -> tuple:
+    """The assistive arm's ready pose for a panel where the ``panel`` scene has it (the hand
+    tilted 30° back from the park pose, the camera centred on the panel's top): the trials', the
+    simulated window's, and the real arm's default (``assist.toml`` ``ready_deg`` overrides it)."""
+    from core.motion.servoing import aimed_pose
+    from core.sim.scenarios import Panel, PanelScenario
+
+    nominal = Panel(*PanelScenario.PANEL_XY, yaw=PanelScenario.PANEL_YAW)
+    return aimed_pose(kin, K, (nominal.x, nominal.y, nominal.top_z), kin.q_home, AXIS_TILT_RAD, FRAME_DT_S)
+
+
 def _trial_scenario(rng):
     from core.sim.scenarios import DoorHandle, Panel, PanelScenario, Scenario, SceneState
 
@@ -218,19 +229,7 @@ class AssistTrials:
         centred on where the panel usually is (a taught pose: computed once from the panel
         scene's nominal place, not from a trial's panel). The approach then starts without a
         swing of the whole image, and the user chooses from this view."""
-        from core.motion.servoing import IbvsConfig, IbvsController
-        from core.sim.scenarios import Panel, PanelScenario
-
-        K = self.camera.K
-        teach = IbvsController(self.kin, K, IbvsConfig(axis_tilt_rad=AXIS_TILT_RAD, feature_px=(K[0, 2], K[1, 2])))
-        nominal = Panel(*PanelScenario.PANEL_XY, yaw=PanelScenario.PANEL_YAW)
-        point = np.array([nominal.x, nominal.y, nominal.top_z, 1.0])
-        q = tuple(self.kin.q_home)
-        for _ in range(600):
-            camera_p = np.linalg.inv(self.kin.camera_pose(q)) @ point
-            uv = (K @ camera_p[:3])[:2] / camera_p[2]
-            q = teach.step(q, uv, float(camera_p[2]), FRAME_DT_S).q
-        return q
+        return nominal_ready_pose(self.kin, self.camera.K)
 
     def run_trial(self, index: int) -> TrialResult:
         """One trial: the scene, the simulated user's choice, then ``AssistLoop`` frames until the

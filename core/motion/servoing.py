@@ -293,3 +293,19 @@ class IbvsController:
         q_next, clamped = self.integrate(q, qdot, dt)
         return IbvsStep(q=q_next, qdot=qdot, twist=twist, error_px=np.zeros(2), feature_px=(np.nan, np.nan),
                         clamped=clamped)
+
+
+def aimed_pose(kinematics, K: np.ndarray, point_base: Sequence[float], q_start: Sequence[float],
+               axis_tilt_rad: float = 0.0, frame_dt_s: float = 1.0 / 30.0, steps: int = 600) -> tuple[float, ...]:
+    """Joint values that centre ``point_base`` (robot_base, m) in the eye-in-hand camera, the optical
+    axis held as ``IbvsController`` holds it (tilted by ``axis_tilt_rad``): IBVS run from ``q_start``
+    for ``steps`` ticks on the exact projection — a pose taught by aiming, not by a camera image
+    (the assistive arm's ready pose: the camera on where its panel usually is)."""
+    servo = IbvsController(kinematics, K, IbvsConfig(axis_tilt_rad=axis_tilt_rad, feature_px=(K[0, 2], K[1, 2])))
+    point = np.append(np.asarray(point_base, dtype=float).reshape(3), 1.0)
+    q = tuple(float(v) for v in q_start)
+    for _ in range(int(steps)):
+        camera_p = np.linalg.inv(kinematics.camera_pose(q)) @ point
+        uv = (servo.K @ camera_p[:3])[:2] / camera_p[2]
+        q = servo.step(q, uv, float(camera_p[2]), frame_dt_s).q
+    return q
