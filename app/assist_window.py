@@ -67,6 +67,9 @@ class AssistSettings:
     next_switch: tuple[str, ...] = ("key:Space", "mouse:right")
     confirm_switch: tuple[str, ...] = ("key:Return", "key:Enter", "mouse:left")
     single_switch: tuple[str, ...] = ("key:Space", "key:Return", "key:Enter", "mouse:left")
+    # the real arm's ready pose (degrees, one per joint) where its camera sees the panel; () = the
+    # pose aimed at the simulated desk's panel place (``app.cli_assist.nominal_ready_pose``)
+    ready_deg: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -149,7 +152,7 @@ def load_assist_settings(path: Optional[Path] = None) -> tuple[AssistSettings, l
         if key not in AssistSettings.__dataclass_fields__:
             warnings.append(f"{path}: unknown setting {key!r} ignored")
             continue
-        if key.endswith("_switch"):
+        if key.endswith("_switch") or key == "ready_deg":
             value = tuple(value) if isinstance(value, list) else value
         try:
             settings = replace(settings, **{key: value})
@@ -187,15 +190,17 @@ def build_sim_loop(seed: int = 0, vibration: bool = False):
     return loop, trials.ready_q
 
 
-def build_webcam_loop(device, bridge=None, depth: str = "auto", calibration=None, capture_factory=None):
+def build_webcam_loop(device, bridge=None, depth: str = "auto", calibration=None, capture_factory=None,
+                      ready_q=None):
     """(AssistLoop, ready pose) on a real hand camera: webcam ``device`` on the ``assistive_5dof``
     arm (``core.devices.hand_camera.WebcamHandCamera``), the circle detector and the servo of the
     trials. Depth: "size" (the button's known size), "range" (the v2 board's HC-SR04 through
     ``bridge.range_m``) or "auto" (the range when the board has a reading, else the size; with no
     board or a board without ``range_m``, the size). The webcam may be missing: the loop runs on
-    black frames and the camera's ``status_message`` says why."""
+    black frames and the camera's ``status_message`` says why. ``ready_q``: the ready pose
+    (default: ``nominal_ready_pose``, the camera on a panel where the simulated desk has it)."""
     from app.cli_assist import (APPROACH_SPEED_M_S, AXIS_TILT_RAD, DETECT_EVERY, FRAME_DT_S, MAX_LINEAR_SPEED_M_S,
-                                PRESS_DEPTH_M, SERVO_GAIN)
+                                PRESS_DEPTH_M, SERVO_GAIN, nominal_ready_pose)
     from core.detect.registry import make_detector
     from core.devices.hand_camera import BridgeRangeSensor, WebcamHandCamera
     from core.kinematics.clik import ClikKinematics
@@ -219,11 +224,36 @@ def build_webcam_loop(device, bridge=None, depth: str = "auto", calibration=None
                                                       max_linear_speed_m_s=MAX_LINEAR_SPEED_M_S))
     detector = make_detector("circles", max_objects=16, min_radius_px=12)
     config = AssistConfig(press_depth_m=PRESS_DEPTH_M, approach_speed_m_s=APPROACH_SPEED_M_S)
-    ready_q = tuple(kin.q_home)
+    ready_q = nominal_ready_pose(kin, camera.K) if ready_q is None else tuple(float(v) for v in ready_q)
     loop = AssistLoop(kin, camera, detector, servo, config, ready_q, depth_source=depth,
                       range_sensor=BridgeRangeSensor(bridge) if depth != "size" else None,
                       frame_dt_s=FRAME_DT_S, detect_every=DETECT_EVERY, render_always=True)
     return loop, ready_q
+
+
+def guarded_arm_factory(bridge) -> Callable[[object], object]:
+    """An ``AssistWorker`` arm factory: the loop → a ``GuardedArm`` sending its joints to ``bridge``
+    (a ``core.devices`` bridge, not yet connected; the worker connects it in its thread)."""
+    def make(loop):
+        from core.devices.guarded_arm import GuardedArm
+
+        return GuardedArm(bridge, loop.kin, loop.frame_dt_s)
+
+    return make
+
+
+def ready_pose_problem(ready_deg, profile) -> str:
+    """Why ``assist.toml``'s ``ready_deg`` cannot be the ready pose ("" when it can)."""
+    import math
+
+    n = len(profile.joints)
+    if len(ready_deg) != n or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in ready_deg):
+        return f"ready_deg = {list(ready_deg)}: give {n} finite joint angles in degrees ({', '.join(j.name for j in profile.joints)})"
+    outside = [f"{j.name} {v:g}° (limits {math.degrees(j.q_min):.0f}…{math.degrees(j.q_max):.0f}°)"
+               for j, v in zip(profile.joints, ready_deg) if not j.q_min <= math.radians(v) <= j.q_max]
+    if outside:
+        return f"ready_deg is outside the joint limits: {', '.join(outside)} — fix it in assist.toml or delete the line"
+    return ""
 
 
 class AssistWorker(QtCore.QThread):
@@ -234,14 +264,25 @@ class AssistWorker(QtCore.QThread):
     - sigStatus(LoopStatus): the loop's state changed (or its outcome)
     - sigFrame(): a new image is waiting in ``take_frame()`` (sent again only after a take)
     - sigError(str): the loop could not be built or failed; the worker has ended
+    - sigArm(str): the driven arm's state changed ("" without one; see ``arm_text``)
+    - sigStopped(str): the worker stopped the arm by itself (its board went away) — the window
+      shows it as a STOP with that reason; RE-ARM reconnects and goes back to the ready pose
+
+    With ``arm_factory`` (the loop → a ``core.devices.guarded_arm.GuardedArm``; ``guarded_arm_factory``) every joint value of the loop
+    goes through deskarm's safety chain to that arm's bridge, and the loop continues from what was
+    sent; at start (and after a re-arm) the arm moves from where it is to the ready pose before the
+    boxes are offered. Without one the loop's joints are the simulated arm itself.
     """
 
     sigBoxes = QtCore.Signal(object)
     sigStatus = QtCore.Signal(object)
     sigFrame = QtCore.Signal()
     sigError = QtCore.Signal(str)
+    sigArm = QtCore.Signal(str)
+    sigStopped = QtCore.Signal(str)
 
-    def __init__(self, loop_factory: Callable[[], tuple], clock: str = "sim", parent=None):
+    def __init__(self, loop_factory: Callable[[], tuple], clock: str = "sim", parent=None,
+                 arm_factory: Optional[Callable[[object], object]] = None):
         super().__init__(parent)
         if clock not in ("sim", "wall"):
             raise ValueError(f"worker clock {clock!r}: use 'sim' (as fast as possible) or 'wall' (real time)")
@@ -257,7 +298,12 @@ class AssistWorker(QtCore.QThread):
         self.loop = None
         self.ready_q = None
         self.engaged = False
-        self.last_command = None  # the latest JointCommand (what a bridge would be sent)
+        self.last_command = None  # the latest JointCommand (what was sent to the arm, with one)
+        self._arm_factory = arm_factory
+        self.arm = None  # the GuardedArm, built in the thread
+        self.arm_text = ""
+        self._arm_waiting = False  # the arm's board is not connected yet: nothing moves, nothing offered
+        self._last_state = None  # (state, outcome) of the latest sigStatus
         self.selections: list[int] = []  # every index the loop was asked to go to
 
     # -- from the GUI thread ---------------------------------------------------------------------
@@ -324,16 +370,68 @@ class AssistWorker(QtCore.QThread):
         elif kind == "estop":
             self.engaged = True
             loop.stop("stopped by the user")
+            if self.arm is not None:
+                self.arm.estop()
+                self._arm_state()
         elif kind == "rearm" and self.engaged:
             self.engaged = False
-            loop.go_to(self.ready_q)
+            if self.arm is not None:
+                self.arm.rearm()
+                self._arm_begin()  # from where the arm is now (it may have sagged while off)
+            else:
+                loop.go_to(self.ready_q)
+
+    # -- the driven arm ----------------------------------------------------------------------------
+
+    def _arm_state(self) -> None:
+        arm = self.arm
+        if arm is None:
+            text = ""
+        elif arm.connected:
+            text = f"arm: {arm.bridge.url} · " + ("E-STOP" if arm.bridge.is_estopped else "connected")
+        else:
+            text = f"arm: {arm.bridge.url} · NOT CONNECTED — {arm.message or 'no answer'}"
+        if text != self.arm_text:
+            self.arm_text = text
+            self.sigArm.emit(text)
+
+    def _arm_begin(self) -> None:
+        """Connect the arm (or keep waiting for it), then move from where it is to the ready pose."""
+        connected = self.arm.connect()
+        self._arm_state()
+        self._arm_waiting = not connected
+        if connected:
+            self.loop.q = self.arm.start_pose()  # the loop is idle here (at start, or stopped)
+            self.loop.go_to(self.ready_q)
+
+    def _arm_lost(self, reason: str) -> None:
+        """The arm's board is gone: the loop stops (it must not servo a camera whose arm does not
+        move) and the window shows a STOP with the reason."""
+        self.engaged = True
+        self.loop.stop(reason)
+        self._arm_state()
+        self.sigStopped.emit(reason)
+
+    def _arm_send(self) -> bool:
+        """The loop's new joint values to the arm; False (and the loop stopped) when none reached it."""
+        loop = self.loop
+        command = self.arm.send(loop.q, loop.t)
+        if command is None:
+            self._arm_lost(self.arm.lost or "the arm did not take the command")
+            return False
+        loop.q = tuple(command.q)
+        self.last_command = command
+        return True
 
     def run(self) -> None:  # noqa: D102 (QThread override)
         try:
             self.loop, self.ready_q = self._factory()
-            self._offer()
+            if self._arm_factory is not None:
+                self.arm = self._arm_factory(self.loop)
+                self._arm_begin()
+            else:
+                self._offer()
             self._emit_status()
-            last = (self.loop.state, self.loop.fsm.outcome)
             next_tick = time.monotonic()
             while self._running.is_set():
                 loop = self.loop
@@ -349,17 +447,30 @@ class AssistWorker(QtCore.QThread):
                     self._handle(command)
                     if command[0] == "estop" or loop.state != was:
                         self._emit_status()
-                        last = (loop.state, loop.fsm.outcome)
+                    continue
+                if self._arm_waiting and not self.engaged:
+                    self._arm_begin()  # tried again on the connect backoff
+                    if not self._arm_waiting:
+                        self._emit_status()
                     continue
                 if idle:
+                    if self.arm is not None and not self.engaged and not self.arm.connected:
+                        self._arm_lost(f"the arm's board went away: {self.arm.message or 'no answer'}")
+                        self._emit_status()
                     continue
                 was = loop.state
-                frame, self.last_command, status = loop.step()
+                frame, command, status = loop.step()
+                if self.arm is None:
+                    self.last_command = command
+                elif not self._arm_send():
+                    self._publish(frame, status)
+                    self._emit_status()
+                    continue
                 self._publish(frame, status)
                 now = (loop.state, loop.fsm.outcome)
-                if now != last:
+                if now != self._last_state:
                     self.sigStatus.emit(status)
-                    last = now
+                    self._last_state = now
                 if was != "IDLE" and loop.state == "IDLE":
                     if was == "RETURN":
                         self._offer()  # back at the ready pose: a fresh choice
@@ -375,11 +486,15 @@ class AssistWorker(QtCore.QThread):
                         next_tick = time.monotonic()
         except Exception as exc:  # noqa: BLE001 — reported to the window instead of killing the thread silently
             self.sigError.emit(f"the assistive loop stopped: {type(exc).__name__}: {exc}")
+        finally:
+            if self.arm is not None:
+                self.arm.disconnect()  # a v2 board's watchdog then holds the arm where it is
 
     def _emit_status(self) -> None:
         from core.motion.assist_loop import LoopStatus
 
         loop = self.loop
+        self._last_state = (loop.state, loop.fsm.outcome)
         self.sigStatus.emit(LoopStatus(loop.state, loop.t, loop.target_index, None, loop.fsm.outcome))
 
 
@@ -470,7 +585,7 @@ class AssistWindow(QtWidgets.QMainWindow):
 
     def __init__(self, loop_factory: Callable[[], tuple] = build_sim_loop, worker_clock: str = "wall",
                  clock: Callable[[], float] = time.monotonic, settings_file: Optional[Path] = None,
-                 parent=None):
+                 parent=None, arm_factory: Optional[Callable[[object], object]] = None):
         super().__init__(parent)
         self.setWindowTitle("deskarm — assist")
         self._clock = clock
@@ -490,7 +605,9 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.sigDeviceSwitch.connect(self._on_device_switch, QtCore.Qt.ConnectionType.QueuedConnection)
         self._build()
         self.set_mode(self.settings.mode, save=False)
-        self.worker = AssistWorker(loop_factory, worker_clock, self)
+        self.worker = AssistWorker(loop_factory, worker_clock, self, arm_factory=arm_factory)
+        self.worker.sigArm.connect(self._on_arm)
+        self.worker.sigStopped.connect(self._on_worker_stopped)
         self.worker.sigBoxes.connect(self._on_boxes)
         self.worker.sigStatus.connect(self._on_status)
         self.worker.sigFrame.connect(self._on_frame)
@@ -568,11 +685,16 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.settings_button.setFont(mode_font)
         self.settings_button.clicked.connect(self.open_settings)
         side.addWidget(self.settings_button)
+        self.arm_label = QtWidgets.QLabel("")  # the driven arm's link (hidden on the simulated desk)
+        self.arm_label.setWordWrap(True)
+        self.arm_label.hide()
+        side.addWidget(self.arm_label)
         self.hint_label = QtWidgets.QLabel("")
         self.hint_label.setWordWrap(True)
         hint_font = QtGui.QFont(self.font())
         hint_font.setPointSize(11)
         self.hint_label.setFont(hint_font)
+        self.arm_label.setFont(hint_font)
         self.hint_label.setAlignment(QtCore.Qt.AlignmentFlag.AlignTop)
         side.addWidget(self.hint_label, 1)
         side_widget = QtWidgets.QWidget()
@@ -684,8 +806,8 @@ class AssistWindow(QtWidgets.QMainWindow):
         text = {"touch": "Tap a numbered box.",
                 "scan2": f"Next: {names(s.next_switch)}.\nGo: {names(s.confirm_switch)}.\n{hold}",
                 "scan1": f"Press {names(s.single_switch)} when your box is yellow.\n{hold}"}[s.mode]
-        if self.switch_messages:
-            text += "\n\n" + "\n".join(self.switch_messages)
+        if self.switch_messages or self.settings_warnings:
+            text += "\n\n" + "\n".join(self.switch_messages + self.settings_warnings)
         self.hint_label.setText(text)
 
     # -- what the worker says ---------------------------------------------------------------------
@@ -713,6 +835,18 @@ class AssistWindow(QtWidgets.QMainWindow):
         if status is not None and status.state in ("ALIGN", "APPROACH", "ACT") and not self.engaged:
             self.view.set_follow(status.centre_px, status.radius_px)
 
+    def _on_arm(self, text: str) -> None:
+        self.arm_label.setText(text)
+        self.arm_label.setVisible(bool(text))
+        bad = "NOT CONNECTED" in text or "E-STOP" in text
+        self.arm_label.setStyleSheet("color: white; background: #b00020; padding: 2px;" if bad else "color: #1b5e20;")
+
+    def _on_worker_stopped(self, reason: str) -> None:
+        """The worker stopped the arm (its board went away): the window's STOP, with the reason."""
+        self.emergency_stop()
+        self._set_state_text("stopped: arm not connected")
+        self.hint_label.setText(f"{reason}\n\nPlug the board back in, then hold RE-ARM.")
+
     def _on_error(self, message: str) -> None:
         self._set_state_text("error")
         self.hint_label.setText(message)
@@ -722,7 +856,8 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.status = status
         n = None if status.target_index is None else status.target_index + 1
         if self.engaged:  # a state change queued before the stop reached the worker: the stop wins
-            self._set_state_text("stopped")
+            if not self.state_text.startswith("stopped"):  # (keeps "stopped: arm not connected")
+                self._set_state_text("stopped")
         elif status.state in ("ALIGN", "APPROACH", "ACT"):
             self._target = status.target_index
             self.view.set_chosen(status.target_index, status.centre_px)
@@ -924,18 +1059,36 @@ class AssistWindow(QtWidgets.QMainWindow):
 
 
 def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False,
-                      hand_camera=None, switches=(), depth: str = "auto") -> int:
+                      hand_camera=None, switches=(), depth: str = "auto", bridge_url: str = "sim://") -> int:
     """Open the assistive view (wall clock) and run until it is closed: on the simulated desk, or
     with ``hand_camera`` (a webcam device: ``core.devices.hand_camera.parse_hand_camera_spec``) on a
-    real one. ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO / keys)."""
+    real one. ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO / keys).
+    ``bridge_url``: the arm the loop's joints go to through the safety chain (``sim://``: the
+    simulated servo arm; a v1/v2 serial port or phidget://: a real one — the caller refuses a real
+    arm on the simulated desk unless asked for on purpose)."""
+    import math
+
     from app.startup import make_app
+    from core.devices import open_bridge
+    from core.kinematics.profile import load_profile
 
     app = make_app()
+    settings, _warnings = load_assist_settings()
+    profile = load_profile("assistive_5dof")
+    bridge = open_bridge(bridge_url, profile)  # not connected yet: the worker connects it
+    ready_q, ready_note = None, ""
+    if settings.ready_deg:
+        ready_note = ready_pose_problem(settings.ready_deg, profile)
+        if not ready_note:
+            ready_q = tuple(math.radians(v) for v in settings.ready_deg)
     if hand_camera is None:
         factory = lambda: build_sim_loop(seed, vibration)  # noqa: E731
     else:
-        factory = lambda: build_webcam_loop(hand_camera, depth=depth)  # noqa: E731
-    window = AssistWindow(factory, worker_clock="wall")
+        factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth, ready_q=ready_q)  # noqa: E731
+    window = AssistWindow(factory, worker_clock="wall", arm_factory=guarded_arm_factory(bridge))
+    if ready_note:
+        window.settings_warnings.append(f"{ready_note}; the default ready pose is used")
+        window._update_hint()
     if switches:
         window.set_settings(with_switches(window.settings, switches))
     app.aboutToQuit.connect(window.stop)

@@ -129,7 +129,8 @@ SUBCOMMANDS = {
 
 
 def run_assist(args) -> int:
-    """``deskarm --assist``: the assistive view on the simulated desk (assistive_5dof, the panel)."""
+    """``deskarm --assist``: the assistive view (assistive_5dof): on the simulated panel, or with
+    ``--hand-camera webcam:N`` on a real one; the arm is ``--bridge`` (default: the simulated servo arm)."""
     if args.robot not in ("desk_rrr", "assistive_5dof") or args.scenario not in ("static", "panel"):
         print("deskarm: --assist runs the assistive_5dof arm on the simulated panel: leave out --robot and "
               "--scenario (or give --robot assistive_5dof --scenario panel)", file=sys.stderr)
@@ -139,18 +140,35 @@ def run_assist(args) -> int:
     except ValueError as exc:
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2
+    from core.devices.bridge import parse_bridge_url
     from core.devices.hand_camera import parse_hand_camera_spec
     from core.devices.switches import parse_switch_spec
 
     try:
         hand_camera = None if args.hand_camera is None else parse_hand_camera_spec(args.hand_camera)
         switches = [parse_switch_spec(spec) for spec in args.switch]
+        real_arm = parse_bridge_url(args.bridge) != "sim"
     except ValueError as exc:
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2
+    refusal = assist_real_arm_refusal(args.bridge, real_arm, args.hand_camera)
+    if refusal:
+        print(f"deskarm: {refusal}", file=sys.stderr)
+        return 2
     from app.assist_window import run_assist_window
 
-    return run_assist_window(size, hand_camera=hand_camera, switches=switches)
+    return run_assist_window(size, hand_camera=hand_camera, switches=switches, bridge_url=args.bridge)
+
+
+def assist_real_arm_refusal(bridge_url: str, real_arm: bool, hand_camera_spec) -> str:
+    """Why ``deskarm --assist`` will not drive ``bridge_url`` ("" when it will): a real arm never
+    presses buttons of the simulated panel that stands in for a missing hand camera — only a user
+    who asked for ``--hand-camera sim`` gets a real arm on the simulated desk (to try the wiring)."""
+    if not real_arm or hand_camera_spec is not None:
+        return ""
+    return (f"--bridge {bridge_url}: refused — with no --hand-camera the assistive view shows the simulated "
+            "panel, and a real arm would press buttons that are not there. Give the camera on the arm's hand "
+            "(--hand-camera webcam:N), or --hand-camera sim to drive the real arm from the simulated panel on purpose")
 
 
 def main(argv: list[str] | None = None) -> int:
