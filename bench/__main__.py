@@ -48,6 +48,9 @@ def collect(quick: bool = False) -> list[dict]:
     from bench import bench_detect
 
     rows += bench_detect.rows(quick)
+    from bench import bench_assist
+
+    rows += bench_assist.rows(quick)
     from bench import bench_startup
 
     rows += bench_startup.rows(quick)

@@ -1,0 +1,13 @@
+"""The assistive rows of ``make bench`` are built (quick mode): every row has samples, the loop
+rows are compared with the render baseline measured in the same frames."""
+from bench import bench_assist
+
+
+def test_assist_rows_have_samples_and_a_baseline():
+    rows = bench_assist.rows(quick=True)
+    names = [r["name"] for r in rows]
+    assert names[0] == bench_assist.BASELINE and len(rows) == 4
+    for r in rows:
+        assert r["samples"] and all(s > 0 for s in r["samples"]), r["name"]
+    assert all(r["baseline"] == bench_assist.BASELINE for r in rows[1:])
+    assert len(rows[1]["samples"]) == len(rows[3]["samples"])  # the chain timed on the same frames as the loop
