@@ -1,7 +1,8 @@
 """The assistive view (issue 12, part 4): the three input modes drive the approach on the simulated
 panel (pytest-qt, offscreen). The worker runs the AssistLoop on the simulated clock (frames as fast
 as the CPU goes); the scanning runs on a fake clock the test moves, and ``scan_tick`` is called
-after each move (the window's timer does the same with the real clock). Tests wait on the window's
+after each move (the window's timer does the same with the real clock) — except in one test, where
+the window's own timer and the real clock move the highlight. Tests wait on the window's
 signals and GUI-thread state, never sleep; every window's worker is stopped and joined.
 """
 import sys
@@ -115,6 +116,32 @@ def test_one_switch_timed_scanning_and_one_press(make_window, qtbot):
     clock.t += 0.15  # … and presses briefly
     qtbot.keyRelease(w, SPACE)
     wait_for_press(qtbot, w, texts, 7)
+
+
+def test_one_switch_on_the_window_s_own_timer_and_the_real_clock(qtbot):
+    """No fake clock: the window's 40 ms timer moves the highlight every T = 1 s of wall time; the
+    test waits for box 7 to light up (an event), then presses the one switch."""
+    w = AssistWindow(sim_loop, worker_clock="sim")  # time.monotonic, the real scan timer
+    w.set_settings(AssistSettings(mode="scan1", scan_period_s=1.0))
+    qtbot.addWidget(w)
+    w.resize(800, 480)
+    w.show()
+    texts, seen = [], []
+    w.sigStateText.connect(texts.append)
+    set_highlight = w.view.set_highlight
+    w.view.set_highlight = lambda index: (seen.append(index), set_highlight(index))[1]
+    try:
+        w.start()
+        qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)
+        qtbot.waitUntil(lambda: w.view.highlight == 6, timeout=TIMEOUT_MS)
+        qtbot.keyPress(w, SPACE)
+        qtbot.keyRelease(w, SPACE)
+        wait_for_press(qtbot, w, texts, 7)
+        moves = [i for i in seen if i is not None]
+        assert moves[moves.index(0):moves.index(6) + 1] == [0, 1, 2, 3, 4, 5, 6]  # one box per step, none skipped
+    finally:
+        w.stop()
+    assert w.worker.isFinished()
 
 
 def test_one_switch_long_press_stops_the_arm_and_a_second_hold_re_arms(make_window, qtbot):
