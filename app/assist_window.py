@@ -25,8 +25,11 @@ config folder (core.paths; ``DESKARM_HOME`` in tests) — a file of its own so t
 ``preferences.toml`` is untouched.
 
 ``AssistWorker`` (a QThread) runs ``core.motion.assist_loop.AssistLoop`` on the simulated desk
-(the still lift panel of ``deskarm assist-trials``, the ``assistive_5dof`` arm): on a simulated
-clock (frames as fast as the CPU goes: tests) or paced by the wall clock (30 frames/s).
+(the still lift panel of ``deskarm assist-trials``, the ``assistive_5dof`` arm) or on a webcam as
+the hand camera: on a simulated clock (frames as fast as the CPU goes: tests) or paced by the wall
+clock (30 frames/s). With an arm (``guarded_arm_factory``: the simulated servo arm by default, a
+v1/v2 board or a Phidget board with ``--bridge``) every joint value goes through the safety chain
+of ``core.devices.guarded_arm.GuardedArm`` to it.
 """
 from __future__ import annotations
 
