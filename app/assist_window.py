@@ -34,6 +34,7 @@ of ``core.devices.guarded_arm.GuardedArm`` to it.
 from __future__ import annotations
 
 import queue
+import sys
 import threading
 import time
 from dataclasses import asdict, dataclass, replace
@@ -387,13 +388,14 @@ class AssistWorker(QtCore.QThread):
     # -- the driven arm ----------------------------------------------------------------------------
 
     def _arm_state(self) -> None:
+        """``arm_text``: "<url>: connected", "<url>: E-STOP" or "<url>: NOT CONNECTED — <the bridge's words>"."""
         arm = self.arm
         if arm is None:
             text = ""
         elif arm.connected:
-            text = f"arm: {arm.bridge.url} · " + ("E-STOP" if arm.bridge.is_estopped else "connected")
+            text = f"{arm.bridge.url}: " + ("E-STOP" if arm.bridge.is_estopped else "connected")
         else:
-            text = f"arm: {arm.bridge.url} · NOT CONNECTED — {arm.message or 'no answer'}"
+            text = f"{arm.bridge.url}: NOT CONNECTED — {arm.message or 'no answer'}"
         if text != self.arm_text:
             self.arm_text = text
             self.sigArm.emit(text)
@@ -668,13 +670,11 @@ class AssistWindow(QtWidgets.QMainWindow):
             group.addButton(b)
             self.mode_buttons[mode] = b
             side.addWidget(b)
-        period_label = QtWidgets.QLabel("Scan every")
-        period_label.setFont(mode_font)
-        side.addWidget(period_label)
         self.period_spin = QtWidgets.QDoubleSpinBox()
         self.period_spin.setRange(MIN_PERIOD_S, MAX_PERIOD_S)
         self.period_spin.setSingleStep(0.5)
         self.period_spin.setDecimals(1)
+        self.period_spin.setPrefix("every ")  # the 1-switch scan period (no label: room for the hint)
         self.period_spin.setSuffix(" s")
         self.period_spin.setValue(self.settings.scan_period_s)
         self.period_spin.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
@@ -689,7 +689,7 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.settings_button.clicked.connect(self.open_settings)
         side.addWidget(self.settings_button)
         self.arm_label = QtWidgets.QLabel("")  # the driven arm's link (hidden on the simulated desk)
-        self.arm_label.setWordWrap(True)
+        self.arm_label.setWordWrap(False)  # one line: "arm: connected", "arm: NOT CONNECTED"
         self.arm_label.hide()
         side.addWidget(self.arm_label)
         self.hint_label = QtWidgets.QLabel("")
@@ -839,16 +839,26 @@ class AssistWindow(QtWidgets.QMainWindow):
             self.view.set_follow(status.centre_px, status.radius_px)
 
     def _on_arm(self, text: str) -> None:
-        self.arm_label.setText(text)
+        """One short line in the side column (the narrow 800x480 layout); the bridge's whole
+        message goes to the tooltip and, when something is wrong, to the log."""
+        url, _, state = text.partition(": ")
+        short = "arm: not connected" if state.startswith("NOT CONNECTED") else f"arm: {state}"
+        if url.startswith("sim"):
+            short += " (simulated)"
+        self.arm_label.setText(short)
+        self.arm_label.setToolTip(text)
         self.arm_label.setVisible(bool(text))
         bad = "NOT CONNECTED" in text or "E-STOP" in text
         self.arm_label.setStyleSheet("color: white; background: #b00020; padding: 2px;" if bad else "color: #1b5e20;")
+        if bad:
+            print(f"deskarm --assist: arm {text}", file=sys.stderr)
 
     def _on_worker_stopped(self, reason: str) -> None:
         """The worker stopped the arm (its board went away): the window's STOP, with the reason."""
         self.emergency_stop()
         self._set_state_text("stopped: arm not connected")
-        self.hint_label.setText(f"{reason}\n\nPlug the board back in, then hold RE-ARM.")
+        self.hint_label.setText("Board unplugged: plug it back in, then hold RE-ARM.")
+        print(f"deskarm --assist: {reason}", file=sys.stderr)
 
     def _on_error(self, message: str) -> None:
         self._set_state_text("error")
