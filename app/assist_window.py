@@ -531,7 +531,7 @@ class SwitchSettingsDialog(StopDialog):
         self.long_press.setValue(settings.long_press_s)
         self.long_press.setStyleSheet(SPIN_STYLE)
         form.addRow("Hold to stop / re-arm", self.long_press)
-        self.sound = QtWidgets.QCheckBox("Beep when the highlight moves")
+        self.sound = QtWidgets.QCheckBox("Sound when the highlight moves")
         self.sound.setChecked(settings.sound)
         form.addRow(self.sound)
         self.error = QtWidgets.QLabel("")
@@ -607,6 +607,7 @@ class AssistWindow(QtWidgets.QMainWindow):
         self._down: Optional[dict] = None  # the switch held now: {name, role, t, fired, engaged_at_press}
         self.switch_sources: dict = {}  # device switch name → core.devices.switches.SwitchSource (running)
         self.switch_messages: list[str] = []  # what the device switches say is wrong (shown in the hint)
+        self._cue = None  # the sound cue, made when the first one is wanted
         self.sigDeviceSwitch.connect(self._on_device_switch, QtCore.Qt.ConnectionType.QueuedConnection)
         self._build()
         self.set_mode(self.settings.mode, save=False)
@@ -718,6 +719,8 @@ class AssistWindow(QtWidgets.QMainWindow):
         """Stop the scan timer, the switch sources and the worker (all joined)."""
         self._scan_timer.stop()
         self._stop_switch_sources()
+        if self._cue is not None:
+            self._cue.close()
         if self.worker.isRunning():
             self.worker.stop()
 
@@ -947,7 +950,15 @@ class AssistWindow(QtWidgets.QMainWindow):
     def _moved_highlight(self, index: int) -> None:
         self.view.set_highlight(index)
         if self.settings.sound:
-            QtWidgets.QApplication.beep()
+            self.sound_cue().play()
+
+    def sound_cue(self):
+        """The highlight's sound cue (``app.sound_cue.SoundCue``), made on first use."""
+        if self._cue is None:
+            from app.sound_cue import SoundCue
+
+            self._cue = SoundCue(QtWidgets.QApplication.beep)
+        return self._cue
 
     def tap(self, image_point: Optional[tuple[float, float]]) -> None:
         """Touch mode: a tap at an image point (None: beside the image)."""
