@@ -179,16 +179,22 @@ def save_assist_settings(settings: AssistSettings, path: Optional[Path] = None) 
 # the simulated desk's loop
 
 
-def build_sim_loop(seed: int = 0, vibration: bool = False):
-    """(AssistLoop, ready pose) on the simulated desk: the still lift panel of ``deskarm
-    assist-trials`` (its first trial's place), the ``assistive_5dof`` arm at its ready pose."""
+def build_sim_loop(seed: int = 0, vibration: bool = False, passing_hand: bool = False):
+    """(AssistLoop, ready pose) on the simulated desk: the lift panel of ``deskarm assist-trials``
+    (its first trial's place) as a panel that answers — a pushed button goes down and its ring
+    lights (``core.sim.assist_scene``) — the ``assistive_5dof`` arm at its ready pose. With
+    ``passing_hand`` the ``panel`` scenario's hand reaches in now and then."""
     import numpy as np
 
     from app.cli_assist import AssistTrials, trial_scene
+    from core.sim.assist_scene import AssistPanelScene, PressFeedbackCamera
 
     trials = AssistTrials("touch", vibration=vibration, seed=seed)
-    trials.desk.set_scenario(trial_scene(np.random.default_rng([int(seed), 0, 12])))
+    placed = trial_scene(np.random.default_rng([int(seed), 0, 12]))
+    scene = AssistPanelScene(placed.panel(), placed.handle, passing_hand=passing_hand)
+    trials.desk.set_scenario(scene)
     loop = trials.loop
+    loop.camera = PressFeedbackCamera(loop.camera, scene)
     loop.render_always = True
     loop.reset(trials.ready_q, 0.0)
     return loop, trials.ready_q
@@ -437,12 +443,14 @@ class AssistWorker(QtCore.QThread):
             else:
                 self._offer()
             self._emit_status()
-            next_tick = time.monotonic()
+            next_tick = last_preview = time.monotonic()
+            preview = self.clock == "wall"  # a live image while nothing moves (not in as-fast-as-possible tests)
             while self._running.is_set():
                 loop = self.loop
                 idle = self.engaged or not loop.busy
+                wait_s = loop.frame_dt_s if preview else 0.2
                 try:  # commands: waited for when there is nothing to do, else only taken
-                    command = self._commands.get(timeout=0.2) if idle else self._commands.get_nowait()
+                    command = self._commands.get(timeout=wait_s) if idle else self._commands.get_nowait()
                 except queue.Empty:
                     command = None
                 if command is not None:
@@ -462,6 +470,13 @@ class AssistWorker(QtCore.QThread):
                     if self.arm is not None and not self.engaged and not self.arm.connected:
                         self._arm_lost(f"the arm's board went away: {self.arm.message or 'no answer'}")
                         self._emit_status()
+                    now_s = time.monotonic()
+                    if preview and not loop.busy and now_s - last_preview >= loop.frame_dt_s:
+                        # the camera keeps showing what it sees while the user chooses (or while
+                        # stopped); the boxes stay as offered — the arm holds still at its pose
+                        loop.t += min(now_s - last_preview, 1.0)
+                        last_preview = now_s
+                        self._publish(loop.render())
                     continue
                 was = loop.state
                 frame, command, status = loop.step()
@@ -846,8 +861,8 @@ class AssistWindow(QtWidgets.QMainWindow):
         message goes to the tooltip and, when something is wrong, to the log."""
         url, _, state = text.partition(": ")
         short = "arm: not connected" if state.startswith("NOT CONNECTED") else f"arm: {state}"
-        if url.startswith("sim"):
-            short += " (simulated)"
+        if url.startswith("sim") and state == "connected":
+            short = "arm: simulated"
         self.arm_label.setText(short)
         self.arm_label.setToolTip(text)
         self.arm_label.setVisible(bool(text))
@@ -887,6 +902,8 @@ class AssistWindow(QtWidgets.QMainWindow):
             else:
                 self._set_state_text(f"could not reach {n}: {outcome.split(':')[0]}")
             self.view.set_chosen(None)
+            self.boxes, self.hit_boxes = [], []  # the camera has moved: offered again from the ready pose
+            self.view.set_boxes([])
         elif status.state == "RETURN" and not self.state_text.startswith(("done", "could not")):
             self._set_state_text("going back")
 
@@ -1083,13 +1100,15 @@ class AssistWindow(QtWidgets.QMainWindow):
 
 
 def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False,
-                      hand_camera=None, switches=(), depth: str = "auto", bridge_url: str = "sim://") -> int:
+                      hand_camera=None, switches=(), depth: str = "auto", bridge_url: str = "sim://",
+                      passing_hand: bool = False) -> int:
     """Open the assistive view (wall clock) and run until it is closed: on the simulated desk, or
     with ``hand_camera`` (a webcam device: ``core.devices.hand_camera.parse_hand_camera_spec``) on a
     real one. ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO / keys).
     ``bridge_url``: the arm the loop's joints go to through the safety chain (``sim://``: the
     simulated servo arm; a v1/v2 serial port or phidget://: a real one — the caller refuses a real
-    arm on the simulated desk unless asked for on purpose)."""
+    arm on the simulated desk unless asked for on purpose). ``passing_hand``: on the simulated
+    desk, a hand reaches in over the panel now and then."""
     import math
 
     from app.startup import make_app
@@ -1106,7 +1125,7 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
         if not ready_note:
             ready_q = tuple(math.radians(v) for v in settings.ready_deg)
     if hand_camera is None:
-        factory = lambda: build_sim_loop(seed, vibration)  # noqa: E731
+        factory = lambda: build_sim_loop(seed, vibration, passing_hand)  # noqa: E731
     else:
         factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth, ready_q=ready_q)  # noqa: E731
     window = AssistWindow(factory, worker_clock="wall", arm_factory=guarded_arm_factory(bridge))

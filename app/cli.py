@@ -67,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--assist", action="store_true",
                    help="open the assistive view (choose a button by touch, two switches or one switch; the "
                         "eye-in-hand arm presses it) instead of the main window; implies --robot assistive_5dof "
-                        "--scenario panel on the simulated desk (default size 800x480)")
+                        "and a still lift panel on the simulated desk (--scenario panel: a hand also reaches in "
+                        "now and then; default size 800x480)")
     p.add_argument("--hand-camera", default=None, metavar="SPEC",
                    help="with --assist: the hand camera — webcam:N (e.g. webcam:2) or a /dev/v4l/by-id/… path as "
                         "webcam:PATH; default: the simulated desk")
@@ -157,7 +158,8 @@ def run_assist(args) -> int:
         return 2
     from app.assist_window import run_assist_window
 
-    return run_assist_window(size, hand_camera=hand_camera, switches=switches, bridge_url=args.bridge)
+    return run_assist_window(size, hand_camera=hand_camera, switches=switches, bridge_url=args.bridge,
+                             passing_hand=args.scenario == "panel")
 
 
 def assist_real_arm_refusal(bridge_url: str, real_arm: bool, hand_camera_spec) -> str:

@@ -71,6 +71,8 @@ def wait_for_press(qtbot, w, texts, number):
     assert [e["to"] for e in log] == ["ALIGN", "APPROACH", "ACT", "IDLE"]
     assert log[0]["reason"] == f"target chosen: box {number}" and log[-1]["reason"].startswith("pressed")
     assert w.worker.selections == [number - 1]
+    calls = w.worker.loop.camera.scene.calls  # the simulated panel: the button really went down
+    assert calls and calls[-1][1] == number
     qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)  # back at the ready pose, a new choice
 
 
@@ -307,3 +309,22 @@ def test_switch_specs_from_the_cli_join_the_settings():
                                          parse_switch_spec("gpio:17=single")])
     assert "gamepad:BTN_SOUTH" in s.confirm_switch and "gpio:17" in s.single_switch
     assert device_switch_names(s) == ["gamepad:BTN_SOUTH", "gpio:17"]
+
+
+def test_the_view_stays_live_while_the_user_chooses(qtbot):
+    """Paced by the wall clock (as the app runs), the hand camera's image keeps coming while
+    nothing moves; the offered boxes stay as they were and nothing is selected."""
+    w = AssistWindow(sim_loop, worker_clock="wall")
+    w.set_settings(AssistSettings(mode="touch"))
+    qtbot.addWidget(w)
+    frames = []
+    w.worker.sigFrame.connect(lambda: frames.append(1))
+    try:
+        w.start()
+        qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)
+        boxes, t0, n0 = list(w.boxes), w.worker.loop.t, len(frames)
+        qtbot.waitUntil(lambda: len(frames) >= n0 + 5, timeout=TIMEOUT_MS)
+        assert w.worker.loop.t > t0 and w.boxes == boxes and w.choosing and w.worker.selections == []
+    finally:
+        w.stop()
+    assert w.worker.isFinished()
