@@ -1,29 +1,35 @@
 """``deskarm assist-trials``: the assistive arm's whole loop on the simulated desk, many times.
 
     deskarm assist-trials [--n 50] [--mode touch|scan2|scan1] [--vibration] [--no-tracker]
-                          [--seed S] [--scan-period S] [--depth size|range] [--json]
+                          [--detector circles|desk] [--seed S] [--scan-period S] [--depth size|range] [--json]
 
 Each trial: a lift panel (the ``panel`` scene's, moved by up to ±1 cm and turned by up to ±0.1 rad,
 no passing hand) and a random button 1…9 the simulated user wants; the arm at its ready pose (the
 park pose with the hand tilted 30° back, camera on the panel's usual place: see ``_ready_pose``); the
-hand camera's image → circle detector (the shipped learned ``desk`` model was trained on the stereo
-rig's far views and finds no buttons in the hand camera's close-up, so the honest choice here is
-``circles``: the buttons' round faces) → the boxes offered to the user in reading order → the
-user's input, simulated (touch: a tap near the button, taps outside every box are ignored and
+hand camera's image → the button detector (``--detector``, see ``make_assist_detector``: ``circles``,
+the default, the buttons' round faces; or ``desk``, the shipped learned model — trained on the stereo
+rig's views and on hand-camera views of the panel — its "button" boxes, ~3× less accurate in size,
+so circles stays the default: see resources/models/README.md) → the boxes offered to the user in
+reading order → the user's input, simulated (touch: a tap near the button, taps outside every box are ignored and
 repeated; scan2: "next" presses at ~0.5 s and "confirm"; scan1: timed scanning, one press ~0.4 s
 after the highlight reaches the box) → the approach FSM (IBVS, Kalman, detector every 3rd frame
 with a KCF tracker in between — with ``--no-tracker`` the Kalman prediction bridges those frames;
 the detector looks in a window around where the button should be, predicted from the camera's own
 motion) → the press. Depth: from the button's known size (its detected ellipse's semi-major axis,
 the fitted edge told apart by the grey level just inside it), or with ``--depth range`` the
-simulated ultrasonic sensor. Circles much smaller than the rest (the plate's screws) are not offered.
+simulated ultrasonic sensor; with ``desk``, half the box's larger side is the button's ring radius
+(scaled by what the model's boxes measure on average, ``DESK_BUTTON_RADIUS_M``), and the point
+aimed at is the top face's centre, a little below the box's (``DESK_BUTTON_CENTRE_SHIFT``). Circles
+much smaller than the rest (the plate's screws) are not offered.
 
 Success: the intended button was pressed — the tool tip's path crossed the button's top face
 within ``SUCCESS_RADIUS_M`` (3 mm) of its centre and went on down by at least half the button's
 travel. final_distance_mm: the horizontal distance from that crossing point to the button's
 centre. time_to_target_s: from the confirmed choice to that crossing (the arm's time);
-selection_s: the user's input time before it. Simulated clock at 30 frames/s, run as fast as the
-CPU allows.
+selection_s: the user's input time before it. depth_error_pct: the estimated depth of the followed
+button against the truth, on the frames the detector measured it in ALIGN/APPROACH. Simulated clock at 30 frames/s, run as fast
+as the CPU allows; the wall-clock cost is reported too (loop_ms_per_frame: one step of the loop in
+ALIGN/APPROACH, render included; detect_ms_per_call: the detector alone).
 """
 from __future__ import annotations
 
@@ -51,6 +57,15 @@ PRESS_DEPTH_M = 0.006
 # servo gain (1/s), the camera's top speed and the approach speed: tried 2/0.08/0.06, 3/0.12/0.08 and
 # 4/0.15/0.10 on 12 trials with and without vibration — all 100 %; the middle one is used
 SERVO_GAIN, MAX_LINEAR_SPEED_M_S, APPROACH_SPEED_M_S = 3.0, 0.12, 0.08
+ASSIST_DETECTORS = ("circles", "desk")  # make_assist_detector's names
+# the desk model's button boxes: half the larger side measures this physical radius on average (the
+# 11 mm ring, times the mean ratio of detected to true box size on hand-camera renders: see the report
+# in resources/models/README.md); the depth from size divides by it
+DESK_BUTTON_RADIUS_M = 0.01125
+# ... and the button's top face (where the press lands) is centred this fraction of the box's width below
+# the box's centre: the box also holds the part of the button's side the tilted camera sees above the face
+# (measured on the same frames: 0.063 ± 0.011; uncorrected it put the press ~1.5 mm off the centre)
+DESK_BUTTON_CENTRE_SHIFT = 0.063
 
 
 class _Parser(argparse.ArgumentParser):
@@ -65,6 +80,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=("touch", "scan2", "scan1"), default="touch", help="input mode (default touch)")
     p.add_argument("--vibration", action="store_true", help="shake the hand (0.5 mm, 0.25°, 4–11 Hz)")
     p.add_argument("--no-tracker", action="store_true", help="no KCF tracker between detector frames")
+    p.add_argument("--detector", choices=ASSIST_DETECTORS, default="circles",
+                   help="the hand camera's button detector: circles (default: the buttons' round faces) or desk "
+                        "(the shipped learned model's button boxes)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--scan-period", type=float, default=1.0, help="scan1: highlight period, 0.5…5 s (default 1)")
     p.add_argument("--depth", choices=("size", "range"), default="size",
@@ -72,6 +90,48 @@ def build_parser() -> argparse.ArgumentParser:
                         "range sensor along the camera axis")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     return p
+
+
+# -----------------------------------------------------------------------------------------------
+# the detector
+
+
+def make_assist_detector(name: str = "circles"):
+    """The hand camera's button detector by name, set up as the trials use it (for the assistive
+    window too): "circles" — the buttons' round faces, ≥ 12 px in radius (the digits' loops and the
+    plate's screws are smaller); "desk" — the shipped learned model (``make_detector("desk")``)
+    restricted to its "button" class, each box with a radius and the physical radius it measures
+    (``core.motion.assist_loop.SizedBoxDetector``). ValueError naming the valid names; the desk
+    model's own FileNotFoundError when its file is missing."""
+    from core.detect.registry import make_detector
+    from core.motion.assist_loop import SizedBoxDetector
+
+    if name == "circles":
+        # faces are ≥ 20 px in radius from the ready pose on; the digits' loops and the screws are < 10 px
+        return make_detector("circles", max_objects=16, min_radius_px=12)
+    if name == "desk":
+        return SizedBoxDetector(make_detector("desk"), "button", DESK_BUTTON_RADIUS_M, DESK_BUTTON_CENTRE_SHIFT)
+    raise ValueError(f"unknown assist detector {name!r}; valid: {', '.join(ASSIST_DETECTORS)}")
+
+
+class _TimedDetector:
+    """A detector that counts its calls and their wall time (the trials report ms per call)."""
+
+    def __init__(self, detector):
+        self.detector = detector
+        self.calls = 0
+        self.seconds = 0.0
+
+    def __getattr__(self, name):  # known_radius_m, name, params, …: the wrapped detector's
+        return getattr(self.detector, name)
+
+    def detect(self, image, roi=None):
+        t0 = time.perf_counter()
+        try:
+            return self.detector.detect(image, roi)
+        finally:
+            self.calls += 1
+            self.seconds += time.perf_counter() - t0
 
 
 # -----------------------------------------------------------------------------------------------
@@ -181,6 +241,7 @@ class TrialResult:
     overtravel_mm: Optional[float] = None  # how much further the tool tip was driven (the arm's compliance)
     selection_s: float = 0.0
     time_to_target_s: Optional[float] = None
+    depth_errors: list = field(default_factory=list)  # (estimated − true) / true depth, per followed frame
     presses: int = 0
     outcome: str = ""
     events: list = field(default_factory=list)
@@ -190,8 +251,7 @@ class AssistTrials:
     """Builds the arm, desk, camera and detector once; ``run_trial(i)`` runs one trial."""
 
     def __init__(self, mode: str = "touch", vibration: bool = False, tracker: bool = True, seed: int = 0,
-                 scan_period_s: float = 1.0, depth_source: str = "size"):
-        from core.detect.registry import make_detector
+                 scan_period_s: float = 1.0, depth_source: str = "size", detector: str = "circles"):
         from core.motion.assist import AssistConfig
         from core.motion.assist_loop import AssistLoop
         from core.kinematics.clik import ClikKinematics
@@ -213,9 +273,10 @@ class AssistTrials:
         self.camera = SimHandCamera(self.desk, self.kin, HandCameraConfig(vibration=vibration), seed=self.seed)
         self.servo = IbvsController(self.kin, self.camera.K, IbvsConfig(axis_tilt_rad=AXIS_TILT_RAD, gain=SERVO_GAIN,
                                                                          max_linear_speed_m_s=MAX_LINEAR_SPEED_M_S))
-        # faces are ≥ 20 px in radius from the ready pose on; the digits' loops and the screws are < 10 px
-        self.detector = make_detector("circles", max_objects=16, min_radius_px=12)
-        self.detector_name = "circles"
+        self.detector = _TimedDetector(make_assist_detector(detector))
+        self.detector_name = detector
+        self.step_seconds = 0.0  # wall time of the loop's steps that rendered and followed (ALIGN/APPROACH)
+        self.step_frames = 0
         self.range_sensor = SimRangeSensor(self.desk, seed=self.seed)
         self.ready_q = self._ready_pose()
         self.assist_config = AssistConfig(press_depth_m=PRESS_DEPTH_M, approach_speed_m_s=APPROACH_SPEED_M_S)
@@ -262,7 +323,11 @@ class AssistTrials:
         prev_tool = self.camera.base_T_tool(loop.q, loop.t)[:3, 3]
         contact, deepest, t_contact = None, -np.inf, None
         while fsm.state != AssistState.IDLE and loop.t - t_start < TRIAL_TIMEOUT_S:
+            t0 = time.perf_counter()
             frame, _command, _status = loop.step()
+            if frame is not None:
+                self.step_seconds += time.perf_counter() - t0
+                self.step_frames += 1
             q, t = loop.q, loop.t
             # the press: where the tool tip's path crosses the button tops' plane, and how deep it goes
             tool = self.camera.base_T_tool(q, t)[:3, 3]
@@ -279,6 +344,10 @@ class AssistTrials:
                         scene.pressed = (hit[0],)
                         res.pressed_button = hit[0]
             prev_tool = tool
+            depth = loop.last_depth_m if frame is not None else None
+            if depth is not None:
+                true_z = float(self.camera.project(frame.base_T_camera, P[None, :])[1][0])
+                res.depth_errors.append((depth - true_z) / true_z)
             if self.trace is not None and frame is not None and loop.last_status is not None:
                 true_uv, true_z = self.camera.project(frame.base_T_camera, P[None, :])
                 err = loop.last_status.error_px
@@ -298,12 +367,15 @@ class AssistTrials:
         return res
 
 
-def summarise(results: list, mode: str, vibration: bool, tracker: bool, detector: str, wall_s: float) -> dict:
+def summarise(results: list, mode: str, vibration: bool, tracker: bool, detector: str, wall_s: float,
+              timing: Optional[dict] = None) -> dict:
     dist = [r.final_distance_mm for r in results if r.final_distance_mm is not None]
     ttt = [r.time_to_target_s for r in results if r.time_to_target_s is not None]
     total = [r.selection_s + r.time_to_target_s for r in results if r.time_to_target_s is not None]
     pct = (lambda xs, p: float(np.percentile(xs, p)) if xs else None)
     mean = (lambda xs: float(np.mean(xs)) if xs else None)
+    depth_pct = [100 * abs(e) for r in results for e in r.depth_errors]
+    depth_bias = [100 * e for r in results for e in r.depth_errors]
     outcomes: dict = {}
     for r in results:
         key = r.outcome.split(":")[0]
@@ -319,16 +391,22 @@ def summarise(results: list, mode: str, vibration: bool, tracker: bool, detector
         "selections_wrong": sum(not r.selected_ok for r in results),
         "overtravel_mm_mean": mean([r.overtravel_mm for r in results if r.overtravel_mm is not None]),
         "wrong_button_pressed": sum(r.pressed_button is not None and r.pressed_button != r.button for r in results),
-        "outcomes": outcomes, "wall_s": round(wall_s, 2),
+        "depth_error_pct_median": pct(depth_pct, 50), "depth_error_pct_p95": pct(depth_pct, 95),
+        "depth_bias_pct_mean": mean(depth_bias),
+        "outcomes": outcomes, "wall_s": round(wall_s, 2), **(timing or {}),
     }
 
 
 def run_trials(n: int, mode: str = "touch", vibration: bool = False, tracker: bool = True, seed: int = 0,
-               scan_period_s: float = 1.0, depth_source: str = "size") -> tuple[dict, list]:
+               scan_period_s: float = 1.0, depth_source: str = "size", detector: str = "circles") -> tuple[dict, list]:
     t0 = time.perf_counter()
-    runner = AssistTrials(mode, vibration, tracker, seed, scan_period_s, depth_source)
+    runner = AssistTrials(mode, vibration, tracker, seed, scan_period_s, depth_source, detector)
     results = [runner.run_trial(i) for i in range(n)]
-    summary = summarise(results, mode, vibration, tracker, runner.detector_name, time.perf_counter() - t0)
+    timed = runner.detector
+    timing = {"detect_ms_per_call": round(1000 * timed.seconds / timed.calls, 2) if timed.calls else None,
+              "loop_ms_per_frame": (round(1000 * runner.step_seconds / runner.step_frames, 2)
+                                    if runner.step_frames else None)}
+    summary = summarise(results, mode, vibration, tracker, runner.detector_name, time.perf_counter() - t0, timing)
     summary["depth"] = depth_source
     return summary, results
 
@@ -342,8 +420,12 @@ def run(command: str, argv: list[str]) -> int:
     if not 0.5 <= args.scan_period <= 5.0:
         print(f"{PROG}: --scan-period {args.scan_period}: need 0.5…5 s", file=sys.stderr)
         return 2
-    summary, results = run_trials(args.n, args.mode, args.vibration, not args.no_tracker, args.seed, args.scan_period,
-                                  args.depth)
+    try:
+        summary, results = run_trials(args.n, args.mode, args.vibration, not args.no_tracker, args.seed,
+                                      args.scan_period, args.depth, args.detector)
+    except FileNotFoundError as exc:  # the desk model's file is missing: its message names the fix
+        print(f"{PROG}: {exc}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(summary))
     else:

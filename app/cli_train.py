@@ -2,15 +2,18 @@
 
     deskarm train-detector [--images N] [--epochs E] [--minutes M] [--out PATH] [--data DIR]
                            [--test-images N] [--input WxH] [--seed S] [--threads T] [--json]
-    deskarm eval-detector [MODEL] [--images N] [--seed S] [--score-threshold X] [--backend B] [--json]
+    deskarm eval-detector [MODEL] [--images N] [--seed S] [--view stereo|hand|both] [--score-threshold X]
+                          [--backend B] [--json]
 
-``train-detector`` renders N labelled images of random simulated-desk scenes (cached in DIR,
-default the user cache folder), trains the small detector of ``core.detect.learned.model`` on
+``train-detector`` renders N labelled images of random simulated-desk scenes — about two thirds
+seen by the stereo rig, a third (``core.sim.dataset.HAND_SHARE``) by the assistive arm's hand
+camera (cached in DIR, default the user cache folder), trains the small detector of ``core.detect.learned.model`` on
 them for E epochs or M minutes, whichever ends first, exports it to ONNX (default
 ``resources/models/desk_objects.onnx``) and scores the exported file, run by OpenCV's DNN module,
-on held-out renders it never saw: per-class AP and mAP@0.5. It needs the optional ``train`` extra
-(torch, CPU). ``eval-detector`` scores any YOLO-layout ONNX model (default: the shipped one) on
-fresh held-out renders, without torch. Both print a table, or one JSON object with ``--json``.
+on held-out renders it never saw, of each camera apart: per-class AP and mAP@0.5 on the rig's views
+and on the hand camera's. It needs the optional ``train`` extra (torch, CPU). ``eval-detector``
+scores any YOLO-layout ONNX model (default: the shipped one) on fresh held-out renders of the
+cameras ``--view`` names (default the stereo rig's), without torch. Both print a table, or one JSON object with ``--json``.
 Exit codes: 0 done, 2 bad option or missing dependency/model.
 """
 from __future__ import annotations
@@ -68,21 +71,22 @@ _HELP = {
 
 
 def _fill(p: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
-    from core.sim.dataset import TEST_SEED_BASE
+    from core.sim.dataset import TEST_SEED_BASE, VIEWS
 
     if command == TRAIN:
-        p.add_argument("--images", type=_positive(int), default=6000, metavar="N",
-                       help="training images (both views of N/2 random scenes; default 6000)")
+        p.add_argument("--images", type=_positive(int), default=8000, metavar="N",
+                       help="training images (two images of each of N/2 random scenes, a third of them from the "
+                            "hand camera; default 8000)")
         p.add_argument("--epochs", type=_positive(int), default=40, metavar="E",
                        help="passes over them at most (default 40)")
-        p.add_argument("--minutes", type=_positive(float), default=8.0, metavar="M",
-                       help="wall-time budget of the optimisation (default 8)")
+        p.add_argument("--minutes", type=_positive(float), default=12.0, metavar="M",
+                       help="wall-time budget of the optimisation (default 12)")
         p.add_argument("--out", default=None, metavar="PATH",
                        help="where to write the .onnx (default: resources/models/desk_objects.onnx)")
         p.add_argument("--data", default=None, metavar="DIR",
                        help="cache folder of the rendered images (default: <user cache>/desk-dataset)")
         p.add_argument("--test-images", type=_positive(int), default=200, metavar="N",
-                       help="held-out renders the exported model is scored on (default 200)")
+                       help="held-out renders the exported model is scored on, per camera (default 200)")
         p.add_argument("--input", type=_size, default=(320, 240), metavar="WxH",
                        help="network input, multiples of 16 (default 320x240: half the 640x480 camera)")
         p.add_argument("--seed", type=int, default=0, help="training seed (weights, order, flips; default 0)")
@@ -95,6 +99,9 @@ def _fill(p: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
                        help="renders to score on (default 200)")
         p.add_argument("--seed", type=int, default=TEST_SEED_BASE, metavar="S",
                        help=f"first held-out scene seed, ≥ {TEST_SEED_BASE} (default {TEST_SEED_BASE})")
+        p.add_argument("--view", choices=VIEWS, default="stereo",
+                       help="which camera's renders: the stereo rig's two views (default), the assistive arm's "
+                            "hand camera (the lift panel up close), or both mixed as in training")
         p.add_argument("--score-threshold", type=float, default=EVAL_SCORE_THRESHOLD, metavar="X",
                        help=f"lowest detection score kept for the AP curve (default {EVAL_SCORE_THRESHOLD})")
         p.add_argument("--backend", choices=("cv2", "onnxruntime", "auto"), default="cv2",
@@ -108,8 +115,9 @@ def build_parser(command: str) -> argparse.ArgumentParser:
 
 
 # ---------------------------------------------------------------------------------------------- eval
-def _score(model_path: Path, n_images: int, first_seed: int, score_threshold: float, backend: str) -> dict:
-    """Score a model file on held-out renders: a JSON-ready dict (raises ValueError/OSError)."""
+def _score(model_path: Path, n_images: int, first_seed: int, score_threshold: float, backend: str,
+           view: str = "stereo") -> dict:
+    """Score a model file on held-out renders of ``view``: a JSON-ready dict (raises ValueError/OSError)."""
     from core.detect.onnx_yolo import OnnxYoloDetector
     from core.sim.dataset import CLASSES, score_detector
 
@@ -118,9 +126,10 @@ def _score(model_path: Path, n_images: int, first_seed: int, score_threshold: fl
     if not classes:
         raise ValueError(f"{model_path}: none of its classes {detector.names or '(unnamed)'} is a desk class "
                          f"({', '.join(CLASSES)}); name them in the model's 'names' metadata")
-    scores, timing = score_detector(detector, n_images, first_seed, classes, 0.5, REPORT_SCORE_THRESHOLD)
+    scores, timing = score_detector(detector, n_images, first_seed, classes, 0.5, REPORT_SCORE_THRESHOLD, view)
     out = {"model": str(model_path), "backend": detector.backend, "input": list(detector.input_wh),
-           "images": scores.n_images, "first_seed": first_seed, "detect_score_threshold": score_threshold}
+           "images": scores.n_images, "first_seed": first_seed, "view": view,
+           "detect_score_threshold": score_threshold}
     out.update(scores.to_dict())
     out["timing"] = {k: round(v, 2) for k, v in timing.items()}
     out["_table"] = scores.table()
@@ -132,8 +141,9 @@ def _print_score(result: dict, as_json: bool) -> None:
     if as_json:
         print(json.dumps(result))
         return
-    print(f"{result['model']}: {result['images']} held-out renders (seeds from {result['first_seed']}), "
-          f"backend {result['backend']}, input {result['input'][0]}x{result['input'][1]}")
+    camera = {"stereo": "stereo rig", "hand": "hand camera", "both": "stereo rig and hand camera"}[result["view"]]
+    print(f"{result['model']}: {result['images']} held-out renders of the {camera} (seeds from "
+          f"{result['first_seed']}), backend {result['backend']}, input {result['input'][0]}x{result['input'][1]}")
     print(table)
     t = result["timing"]
     print(f"detect {t['detect_ms_per_image']:.1f} ms per 640x480 image (render {t['render_ms_per_image']:.1f} ms)")
@@ -160,7 +170,7 @@ def _run_eval(args) -> int:
         print(f"{prog}: model not found: {model}", file=sys.stderr)
         return 2
     try:
-        result = _score(model, args.images, args.seed, args.score_threshold, args.backend)
+        result = _score(model, args.images, args.seed, args.score_threshold, args.backend, args.view)
     except (ValueError, ImportError) as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
@@ -190,7 +200,7 @@ def _run_train(args) -> int:
         return 2
     from core.detect.learned.model import TrainConfig, config_dict, export_onnx, train_detector
     from core.paths import user_dir
-    from core.sim.dataset import CLASSES, DATASET_VERSION, TEST_SEED_BASE, training_arrays
+    from core.sim.dataset import CLASSES, DATASET_VERSION, HAND_SHARE, TEST_SEED_BASE, is_hand_scene, training_arrays
 
     log_stream = sys.stderr if args.json else sys.stdout
 
@@ -214,19 +224,25 @@ def _run_train(args) -> int:
     data_s = time.perf_counter() - t0
     counts = {name: int(sum(int(((lab == i) & ~d).sum()) for lab, d in zip(labels, difficult)))
               for i, name in enumerate(CLASSES)}
-    say(f"{len(images)} images, boxes per class {counts}, ready in {data_s:.0f} s; training "
+    n_scenes = -(-len(images) // 2)
+    hand_images = min(len(images), 2 * sum(is_hand_scene(seed) for seed in range(n_scenes)))
+    say(f"{len(images)} images ({hand_images} from the hand camera), boxes per class {counts}, ready in "
+        f"{data_s:.0f} s; training "
         f"(≤ {config.epochs} epochs, ≤ {args.minutes:g} min)")
     result = train_detector(images, boxes, labels, difficult, len(CLASSES), config, progress=say)
-    training = {**result.summary(), "images": len(images), "scene_seeds": [0, -(-len(images) // 2) - 1],
-                "boxes": counts, "dataset_version": DATASET_VERSION, "config": config_dict(config),
+    training = {**result.summary(), "images": len(images), "hand_images": hand_images, "hand_share": HAND_SHARE,
+                "scene_seeds": [0, n_scenes - 1], "boxes": counts, "dataset_version": DATASET_VERSION, "config": config_dict(config),
                 "command": "deskarm train-detector " + " ".join(args.argv)}
     meta = {"deskarm_training": training}
     try:
         export_onnx(result.net, out, CLASSES, args.input, metadata=meta)
-        score = _score(out, args.test_images, TEST_SEED_BASE, EVAL_SCORE_THRESHOLD, "cv2")
-        meta["deskarm_eval"] = {"images": score["images"], "first_seed": TEST_SEED_BASE, "map50": score["map"],
-                                "ap50": {k: v["ap"] for k, v in score["classes"].items()}}
-        export_onnx(result.net, out, CLASSES, args.input, metadata=meta)  # the same weights, with their score
+        score = _score(out, args.test_images, TEST_SEED_BASE, EVAL_SCORE_THRESHOLD, "cv2", "stereo")
+        hand = _score(out, args.test_images, TEST_SEED_BASE, EVAL_SCORE_THRESHOLD, "cv2", "hand")
+        for key, result_of_view in (("deskarm_eval", score), ("deskarm_eval_hand", hand)):
+            meta[key] = {"images": result_of_view["images"], "first_seed": TEST_SEED_BASE,
+                         "view": result_of_view["view"], "map50": result_of_view["map"],
+                         "ap50": {k: v["ap"] for k, v in result_of_view["classes"].items()}}
+        export_onnx(result.net, out, CLASSES, args.input, metadata=meta)  # the same weights, with their scores
     except OSError as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
@@ -236,7 +252,12 @@ def _run_train(args) -> int:
     if not args.json:
         say(f"trained in {result.seconds:.0f} s ({result.epochs_done:.1f} epochs, {result.steps} steps); wrote "
             f"{out} ({score['model_bytes'] / 1e6:.2f} MB)")
-    _print_score(score, args.json)
+        _print_score(score, False)
+        _print_score(hand, False)
+        return 0
+    hand.pop("_table")
+    score["hand"] = hand
+    _print_score(score, True)
     return 0
 
 

@@ -12,6 +12,11 @@ by a wall clock). One frame of ``step``:
    ``detect_every`` frames, a KCF tracker — or, with ``tracker=False``, the Kalman prediction —
    in between); its depth comes from the button's known size or the range sensor.
 
+The detector is either a circle detector (``radius_px`` from the fitted circle; depth from the
+button face's or ring's known radius, told apart by the grey level inside) or a box detector
+made to speak the same language by ``SizedBoxDetector`` (the learned desk model: a radius from
+each box, and the one physical radius that radius measures).
+
 Before a choice, ``boxes(image)`` lists the selectable boxes (detections, the small ones — the
 plate's screws — left out) in reading order; ``offer(image)`` keeps that list as the one the
 user's choice refers to, and ``select(index)`` starts the FSM on it. ``stop()`` ends any
@@ -37,10 +42,71 @@ DETECTED_RADII_M = (0.0086, 0.011)
 DARK_FACE_LEVEL = 120  # grey level between the dark face (~40) and the chrome ring (~220)
 MIN_RADIUS_OF_MEDIAN = 0.6  # circles smaller than this fraction of the median radius are not offered
 RETURN_SPEED_RAD_S = 0.8  # go_to: the fastest joint's speed on the way back to a pose
+BUTTON_RING_RADIUS_M = 0.011  # a lift-panel button's outer (chrome ring) radius (core.sim.scenarios.Panel)
 # where a target's depth comes from: the button's known size; the range sensor (None on a dropout);
 # "auto": the range sensor when it has a reading, else the known size (a real board whose HC-SR04
 # is absent, unplugged or out of range falls back frame by frame)
 DEPTH_SOURCES = ("size", "range", "auto")
+
+
+class SizedBoxDetector:
+    """A box detector (the learned desk model) as the assist loop needs it: only one class of
+    object, each detection with a radius — half its box's larger side — and the physical radius
+    (``known_radius_m``) that this radius measures, for the depth from the object's known size.
+
+    A round button seen obliquely is an ellipse whose major axis is its true diameter; the box's
+    larger side spans it (the camera's x axis stays horizontal, the tilt shortens the other side).
+    ``known_radius_m`` is what the detector's boxes really measure on average: the ring's radius
+    times the mean ratio of the detected box to the true one (see app.cli_assist).
+    ``centre_shift_of_width``: where the point to servo on lies in the box — this fraction of the
+    box's width below the box's centre (image y). A button's box holds its whole silhouette, the
+    top face and the part of its side the tilted camera sees above it; the face's centre, where
+    the press must land, is lower than the box's centre (0 keeps the box's centre).
+
+    ``detect(image, roi)`` runs the network on the WHOLE image and keeps the detections whose
+    centre lies in ``roi``: the network's input size is fixed, so a crop would be enlarged to it
+    and show the button at a scale it was not trained on (and costs the same). Detections of the
+    whole image are cached per image (the loop asks twice for the same frame at most)."""
+
+    def __init__(self, detector, label: str, known_radius_m: float, centre_shift_of_width: float = 0.0):
+        if not 0.0 < known_radius_m < 1.0:
+            raise ValueError(f"known_radius_m = {known_radius_m} m: need 0 < r < 1 m (the object's physical radius)")
+        names = getattr(detector, "names", None)
+        if not -0.5 <= centre_shift_of_width <= 0.5:
+            raise ValueError(f"centre_shift_of_width = {centre_shift_of_width}: need −0.5…0.5 (a point inside the box)")
+        if names is not None and label not in names:
+            raise ValueError(f"the detector has no class {label!r} (its classes: {', '.join(names)}); choose one of "
+                             f"those")
+        self.detector = detector
+        self.label = str(label)
+        self.known_radius_m = float(known_radius_m)
+        self.centre_shift_of_width = float(centre_shift_of_width)
+        self.name = f"{getattr(detector, 'name', 'boxes')}:{label}"
+        self._cache: tuple = (None, [])
+
+    @property
+    def params(self):
+        return getattr(self.detector, "params", None)
+
+    def _all(self, image) -> list:
+        from dataclasses import replace
+
+        if self._cache[0] is image:
+            return self._cache[1]
+        k = self.centre_shift_of_width
+        found = [replace(d, radius_px=0.5 * max(d.box[2], d.box[3]),
+                         centre_px=(d.centre_px[0], d.centre_px[1] + k * d.box[2]))
+                 for d in self.detector.detect(image) if d.label == self.label]
+        self._cache = (image, found)
+        return found
+
+    def detect(self, image, roi=None) -> list:
+        """This class's detections in ``image`` (centre inside ``roi`` = (x, y, w, h) when given), with radius_px."""
+        found = self._all(image)
+        if roi is None:
+            return list(found)
+        x, y, w, h = (float(v) for v in roi)
+        return [d for d in found if x <= d.centre_px[0] <= x + w and y <= d.centre_px[1] <= y + h]
 
 
 @dataclass
@@ -149,7 +215,8 @@ class AssistLoop:
     ``camera``: renders/grabs with ``render(q, t)`` → an object with ``image`` (BGR) and
     ``base_T_camera``; has ``K`` and ``project(base_T_camera, points)`` (``core.sim.hand_camera.
     SimHandCamera``). ``kinematics``: ``camera_pose(q)`` (the camera's pose from the joints, no shake).
-    ``detector``: a ``core.detect`` detector whose detections carry ``radius_px`` (circles).
+    ``detector``: a ``core.detect`` detector whose detections carry ``radius_px`` (circles), or a
+    ``SizedBoxDetector`` (boxes; its ``known_radius_m`` gives the depth from size).
     ``servo``: the ``IbvsController``; ``assist_config``: the FSM's ``AssistConfig``.
     ``range_sensor`` (``measure(pose, t)`` → m or None) is needed with ``depth_source`` "range" or "auto"
     (the range when it has a reading, else the known size; ``last_depth_source`` tells which).
@@ -197,6 +264,7 @@ class AssistLoop:
         self._seq = 0
         self._return_to: Optional[np.ndarray] = None
         self.last_depth_source: Optional[str] = None  # "range" or "size": what gave the latest depth
+        self.last_depth_m: Optional[float] = None  # the latest frame's own depth estimate (before the FSM's median)
 
     # -- before a choice ---------------------------------------------------------------------
 
@@ -209,7 +277,7 @@ class AssistLoop:
         self.t = float(t)
         self.offered, self.target_index, self._offered_frame = [], None, None
         self._obs, self._follower, self._frame_no, self._return_to = None, None, 0, None
-        self.last_frame, self.last_centre, self.last_status = None, None, None
+        self.last_frame, self.last_centre, self.last_status, self.last_depth_m = None, None, None, None
 
     def render(self):
         """A new frame at the current joints and time (kept as ``last_frame``)."""
@@ -320,10 +388,12 @@ class AssistLoop:
         base_T_camera = self.kin.camera_pose(self.q)  # what the joints say (a shake is unknown to the arm)
         centre, size = self._follower.follow(frame.image, self.t, self._frame_no % self.detect_every == 0,
                                              base_T_camera)
+        self.last_depth_m = None
         if centre is None:
             self._obs = None
             return self._finish(frame, JointCommand)
         depth = self._target_depth(frame, centre, size, base_T_camera, self.t)
+        self.last_depth_m = depth
         self._obs = TargetObservation(tuple(centre), depth)
         self.last_centre = centre
         if size is not None:
@@ -361,10 +431,15 @@ class AssistLoop:
         return depth
 
     def _depth(self, image, centre_px, radius_px: float) -> Optional[float]:
-        """The button's depth from its known size. The circle detector fits either the dark face's
+        """The button's depth from its known size. A ``SizedBoxDetector`` says what its radius
+        measures (``known_radius_m``). The circle detector fits either the dark face's
         edge or the chrome ring's outer edge; which one shows in the image just inside the fitted
         circle (at 0.85 of its radius): dark face inside → the face (8.6 mm), bright ring → the ring."""
         from core.motion.servoing import depth_from_size
+
+        known = getattr(self.detector, "known_radius_m", None)
+        if known is not None:
+            return depth_from_size(radius_px, float(known), self.camera.K[0, 0])
 
         a = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
         xs = np.clip(np.round(centre_px[0] + 0.85 * radius_px * np.cos(a)).astype(int), 0, image.shape[1] - 1)

@@ -1,17 +1,27 @@
 """Labelled images of the simulated desk, for training and scoring the desk detector.
 
-Each dataset *seed* is one random scene, rendered into both cameras (two images): balls, upside-
-down cups, yellow banana-like plushes, discs and cylinders in many hues, a lift panel of 9
-buttons, a door handle, ArUco cards, sometimes the arm or a hovering hand in the way, under
-random camera settings (exposure, gain, brightness, contrast) on one of a few desks (desk
-texture, blur, noise and a slightly bumped rig). The labels are ``SimDesk.image_boxes``: tight
-boxes of what is visible of each object, so they are exact by construction.
+Each dataset *seed* is one random scene, rendered as two images, from one of two kinds of camera:
+
+* the stereo rig (``render_scene``): both views of a desk with balls, upside-down cups, yellow
+  banana-like plushes, discs and cylinders in many hues, a lift panel of 9 buttons, a door handle,
+  ArUco cards, sometimes the arm or a hovering hand in the way;
+* the assistive arm's hand camera (``render_hand_scene``): a lift panel somewhere within the arm's
+  reach, sometimes the door handle, a few other objects or a hand beside it, seen from two poses
+  the arm takes (``hand_camera_pose``): the ready view of the whole panel and views along the
+  approach to a button (or the handle), 8–32 cm away, the camera's axis tilted ~30° back towards
+  the base as the arm holds it — close, steep views the rig never has.
+
+Both under random camera settings (exposure, gain, brightness, contrast) on one of a few desks
+(desk texture, blur, noise and a slightly bumped rig). The labels are ``SimDesk.image_boxes`` (the
+rig) or ``SimDesk.render_camera(boxes=True)`` (the hand camera): tight boxes of what is visible of
+each object, so they are exact by construction. Training mixes the two (``view="both"``: a share
+``HAND_SHARE`` of the seeds are hand-camera scenes, ``is_hand_scene``); scoring takes either alone.
 
 Seeds below ``TEST_SEED_BASE`` are for training; seeds from it on are held out (their scenes,
 and three of their four desks, are never used in training). Everything is deterministic given
 the seed.
 
-``render_samples(seeds)`` yields full-size ``Sample``s (what the app's cameras would see);
+``render_samples(seeds, view=...)`` yields full-size ``Sample``s (what the app's cameras would see);
 ``training_arrays`` letterboxes them to a network input and caches them as .npz chunks;
 ``score_detector`` runs any detector over held-out samples and returns per-class AP and mAP@0.5.
 """
@@ -42,13 +52,14 @@ from core.sim.scenarios import (
     Thing,
 )
 
-__all__ = ["CLASSES", "TEST_SEED_BASE", "DATASET_VERSION", "LabelledBox", "Sample", "random_scene", "desk_for",
-           "render_scene", "render_samples", "training_arrays", "score_detector", "training_seeds",
-           "held_out_seeds", "renderer_fingerprint"]
+__all__ = ["CLASSES", "TEST_SEED_BASE", "DATASET_VERSION", "HAND_SHARE", "VIEWS", "LabelledBox", "Sample",
+           "random_scene", "random_hand_scene", "is_hand_scene", "hand_camera_pose", "desk_for", "render_scene",
+           "render_hand_scene", "render_views", "render_samples", "training_arrays", "score_detector",
+           "training_seeds", "held_out_seeds", "renderer_fingerprint"]
 
 CLASSES = ("ball", "cup", "plush", "button", "disc", "handle")  # class index = position
 TEST_SEED_BASE = 1_000_000  # seeds ≥ this are the held-out test scenes
-DATASET_VERSION = 1  # bump when a change alters the renders or labels (invalidates caches)
+DATASET_VERSION = 2  # bump when a change alters the renders or labels (invalidates caches); 2: hand-camera views
 DIFFICULT_VISIBLE_FRACTION = 0.5  # a box showing less of its object than this is "difficult"
 DIFFICULT_MIN_PX = 24  # ... and so is one with fewer visible pixels than this
 CHUNK_SCENES = 250  # training_arrays caches this many scenes per .npz file
@@ -58,6 +69,13 @@ MARKER_IDS = (23, 50, 7, 99)  # the desk's ArUco cards (distractors, never label
 _TRAIN_DESKS = 12
 _TEST_DESKS = (0, 1000, 1001, 1002)  # the app's default desk, and three that training never sees
 _DEFAULT_DESK = 0
+
+VIEWS = ("stereo", "hand", "both")  # which camera renders a seed: the rig, the hand camera, or the training mix
+# a third of the training images from the hand camera: enough that the close, steep views of the panel
+# are learnt (the stereo-only model found no button there), while the rig's views keep ~2/3 of the images
+HAND_SHARE = 0.35
+HAND_AXIS_TILT_RAD = math.radians(30.0)  # the assistive arm holds its camera axis tilted so (app.cli_assist)
+HAND_DEPTH_M = (0.08, 0.32)  # target depths of the approach views (the ready view is ~0.25 m, ACT starts at 0.15)
 
 
 class _FixedScene(Scenario):
@@ -95,7 +113,7 @@ class Sample:
     """A rendered image (BGR uint8, full camera size) and its labelled boxes."""
 
     seed: int
-    side: str  # "left" or "right"
+    side: str  # "left" or "right" (the stereo rig), "hand" (the assistive arm's hand camera)
     image: np.ndarray
     boxes: tuple[LabelledBox, ...]
 
@@ -169,6 +187,18 @@ class _Placer:
         return None
 
 
+def _settings_and_desk(rng: np.random.Generator, seed: int) -> tuple[CameraSettings, int]:
+    """Random camera settings and a desk index: a training desk, or for held-out seeds a test desk."""
+    settings = CameraSettings(exposure=float(np.clip(rng.normal(0.0, 0.3), -0.8, 0.8)),
+                              gain=float(rng.choice((0.0, rng.uniform(0.0, 12.0)))),
+                              brightness=float(rng.uniform(-15, 15)), contrast=float(rng.uniform(0.8, 1.2)))
+    if seed >= TEST_SEED_BASE:
+        desk = _TEST_DESKS[int(rng.integers(len(_TEST_DESKS)))]
+    else:
+        desk = int(rng.integers(_TRAIN_DESKS))
+    return settings, desk
+
+
 def random_scene(seed: int) -> tuple[SceneState, CameraSettings, Optional[np.ndarray], int]:
     """Scene ``seed``: (state, camera settings, arm chain points or None, desk index for ``desk_for``)."""
     rng = _rng(seed, 1)
@@ -240,13 +270,7 @@ def random_scene(seed: int) -> tuple[SceneState, CameraSettings, Optional[np.nda
                                         math.sin(down)])
         tool[2] = max(tool[2], 0.02)
         arm = np.array([[0.0, 0.0, 0.0], shoulder, elbow, tool])
-    settings = CameraSettings(exposure=float(np.clip(rng.normal(0.0, 0.3), -0.8, 0.8)),
-                              gain=float(rng.choice((0.0, rng.uniform(0.0, 12.0)))),
-                              brightness=float(rng.uniform(-15, 15)), contrast=float(rng.uniform(0.8, 1.2)))
-    if seed >= TEST_SEED_BASE:
-        desk = _TEST_DESKS[int(rng.integers(len(_TEST_DESKS)))]
-    else:
-        desk = int(rng.integers(_TRAIN_DESKS))
+    settings, desk = _settings_and_desk(rng, seed)
     state = SceneState(cards=tuple(cards), hands=hands, things=tuple(things), panels=panels, handles=handles)
     return state, settings, arm, desk
 
@@ -289,10 +313,209 @@ def render_scene(seed: int, classes: Sequence[str] = CLASSES) -> tuple[Sample, S
                  for side in SIDES)
 
 
-def render_samples(seeds: Iterable[int], classes: Sequence[str] = CLASSES) -> Iterator[Sample]:
-    """Both views of each scene seed, in order (left, right, left, right, …)."""
+# ------------------------------------------------------------------------------------ hand-camera scenes
+def is_hand_scene(seed: int) -> bool:
+    """Whether training seed ``seed`` is a hand-camera scene in the training mix (``view="both"``):
+    a share HAND_SHARE of the seeds, chosen by the seed alone."""
+    return bool(_rng(seed, 3).random() < HAND_SHARE)
+
+
+@functools.lru_cache(maxsize=1)
+def _hand_camera() -> tuple[np.ndarray, tuple[int, int], np.ndarray]:
+    """(K, (w, h), the tool tip in the camera frame (m)) of the assistive arm's hand camera: the
+    default ``HandCameraConfig`` and the ``assistive_5dof`` profile's camera-to-tool offset."""
+    from core.kinematics.clik import ClikKinematics
+    from core.kinematics.profile import load_profile
+    from core.sim.hand_camera import HandCameraConfig
+
+    config = HandCameraConfig()
+    kin = ClikKinematics(load_profile("assistive_5dof"))
+    q0 = kin.q_home
+    camera_p_tool = (np.linalg.inv(kin.camera_pose(q0)) @ kin.fk_pose(q0))[:3, 3]
+    return config.K, config.size, camera_p_tool
+
+
+def _turn(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix of ``angle`` rad about the unit vector ``axis`` (Rodrigues)."""
+    k = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(angle) * Kx + (1 - math.cos(angle)) * Kx @ Kx
+
+
+def hand_camera_pose(point_base, depth_m: float, pixel, K: np.ndarray, tilt_rad: float = HAND_AXIS_TILT_RAD,
+                     roll_rad: float = 0.0, axis_jitter_rad: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+    """base_T_camera (4x4, OpenCV optical frame) of a hand camera that sees ``point_base`` (robot_base,
+    m) at ``pixel`` (u, v) and depth ``depth_m``, held as the assistive arm holds it: the optical axis
+    tilted ``tilt_rad`` from straight down towards the base in the arm's vertical plane, the image's
+    x axis horizontal (``IbvsController`` in translate mode; a 5-DOF arm's hand cannot spin freely),
+    then turned by ``roll_rad`` about the axis and tipped by ``axis_jitter_rad`` (about the camera's
+    x and y: a hand that is not quite where the servo wants it, or shakes)."""
+    P = np.asarray(point_base, dtype=float).reshape(3)
+    camera_p = depth_m * (np.linalg.inv(K) @ np.array([pixel[0], pixel[1], 1.0]))
+    outward = P[:2] / max(float(np.linalg.norm(P[:2])), 1e-6)  # the arm's vertical plane, first guess
+    for _ in range(4):  # the plane goes through the camera, which moves with it: a few fixed-point steps
+        axis = math.cos(tilt_rad) * np.array([0.0, 0.0, -1.0]) - math.sin(tilt_rad) * np.array([*outward, 0.0])
+        x = np.cross([0.0, 0.0, 1.0], axis)
+        x /= np.linalg.norm(x)
+        R = np.column_stack([x, np.cross(axis, x), axis]) @ _turn(np.array([0.0, 0.0, 1.0]), roll_rad)
+        R = R @ _turn(np.array([1.0, 0.0, 0.0]), axis_jitter_rad[0]) @ _turn(np.array([0.0, 1.0, 0.0]),
+                                                                             axis_jitter_rad[1])
+        centre = P - R @ camera_p
+        if np.linalg.norm(centre[:2]) > 1e-6:
+            outward = centre[:2] / np.linalg.norm(centre[:2])
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, centre
+    return T
+
+
+def random_hand_scene(seed: int) -> tuple[SceneState, CameraSettings, int, tuple[np.ndarray, np.ndarray]]:
+    """Hand-camera scene ``seed``: (state, camera settings, desk index, two base_T_camera poses).
+
+    A lift panel (half the time near the ``panel`` scene's place and turn, else anywhere the arm
+    reaches, any yaw; random lit and pressed buttons), the door handle beside it (55 %), 0–3 balls,
+    cups, plushes or discs around it, a hovering hand (10 %). Each pose is either the ready view
+    (the panel's middle near the image centre, 19–32 cm away) or a view along an approach (a random
+    button, or the handle, 8–32 cm away, where the servo puts it — on the tool's axis — or anywhere
+    in the image while it aligns), tilt 30° ± 4°, a little roll and jitter."""
+    from core.sim.scenarios import PanelScenario
+
+    rng = _rng(seed, 4)
+    if rng.random() < 0.5:
+        x, y = (np.array(PanelScenario.PANEL_XY) + rng.uniform(-0.04, 0.04, 2)).tolist()
+        yaw = PanelScenario.PANEL_YAW + float(rng.uniform(-0.35, 0.35))
+    else:
+        x, y, yaw = float(rng.uniform(-0.16, 0.16)), float(rng.uniform(0.06, 0.24)), float(rng.uniform(-math.pi, math.pi))
+    lit = tuple(int(n) for n in rng.choice(9, size=int(rng.integers(0, 3)), replace=False) + 1)
+    pressed = tuple(int(n) for n in rng.choice(9, size=int(rng.integers(0, 2)), replace=False) + 1)
+    panel = Panel(float(x), float(y), yaw=float(yaw), lit=lit, pressed=pressed)
+    taken = [(panel.x, panel.y, 0.10)]  # footprints (x, y, radius) already used
+
+    def free_spot(radius: float, near: float, far: float) -> Optional[tuple[float, float]]:
+        for _ in range(20):
+            a, r = float(rng.uniform(-math.pi, math.pi)), float(rng.uniform(near, far))
+            px, py = panel.x + r * math.cos(a), panel.y + r * math.sin(a)
+            if all(math.hypot(px - tx, py - ty) > radius + tr for tx, ty, tr in taken):
+                taken.append((px, py, radius))
+                return px, py
+        return None
+
+    handles: tuple[DoorHandle, ...] = ()
+    if rng.random() < 0.55:
+        length = float(rng.uniform(0.10, 0.14))
+        spot = free_spot(0.5 * length + 0.015, 0.13, 0.20)
+        if spot is not None:
+            hyaw = float(rng.uniform(-math.pi, math.pi))
+            px, py = spot[0] - 0.5 * length * math.cos(hyaw), spot[1] - 0.5 * length * math.sin(hyaw)
+            handles = (DoorHandle(px, py, yaw=hyaw, length_m=length),)
+    things: list[Thing] = []
+    for index in range(int(rng.choice(4, p=(0.45, 0.25, 0.2, 0.1)))):
+        kind = str(rng.choice(("ball", "cup", "plush", "disc")))
+        if kind == "ball":
+            r = float(rng.uniform(0.014, 0.032))
+            size, height, colour, tyaw = r, 2 * r, _object_colour(rng), 0.0
+        elif kind == "cup":
+            size = float(rng.uniform(0.034, 0.046))
+            height, colour, tyaw = float(rng.uniform(0.065, 0.10)), _object_colour(rng), 0.0
+        elif kind == "plush":
+            size, height = float(rng.uniform(0.05, 0.08)), float(rng.uniform(0.03, 0.048))
+            colour = _hsv_colour(rng, hue=float(rng.uniform(0.12, 0.17)), sat=(0.65, 0.95), val=(0.8, 0.98))
+            tyaw = float(rng.uniform(-math.pi, math.pi))
+        else:
+            size, height = float(rng.uniform(0.015, 0.034)), float(rng.uniform(0.004, 0.03))
+            colour, tyaw = _object_colour(rng), 0.0
+        spot = free_spot(size, 0.11, 0.24)
+        if spot is not None:
+            things.append(Thing(kind=kind, label=f"random {kind}", truth_id=THING_ID_BASE - index, x=spot[0],
+                                y=spot[1], radius_m=size, height_m=height, colour=colour, yaw=tyaw))
+    hands = ()
+    if rng.random() < 0.10:  # a user's hand beside the panel, low (the camera comes down to ~9 cm)
+        spot = free_spot(0.06, 0.10, 0.22)
+        if spot is not None:
+            hands = (Hand(spot[0], spot[1], float(rng.uniform(0.04, 0.07)), yaw=float(rng.uniform(-math.pi, math.pi))),)
+    K, (w, h), camera_p_tool = _hand_camera()
+    corners = np.array([panel.to_base(su * panel.width_m / 2, sv * panel.length_m / 2, z)
+                        for su in (-1, 1) for sv in (-1, 1) for z in (0.0, panel.top_z)])
+
+    def sees_the_whole_panel_from_in_front(T: np.ndarray) -> bool:
+        # no near-plane clipping in the renderer: a plate corner behind the camera would paint it all over
+        camera_z = (np.linalg.inv(T) @ np.column_stack([corners, np.ones(len(corners))]).T)[2]
+        return bool(camera_z.min() > 0.03)
+
+    poses = []
+    while len(poses) < 2:
+        if rng.random() < 0.35:  # the ready view: the whole panel, its middle near the image centre
+            target = np.array(panel.to_base(*rng.uniform(-0.02, 0.02, 2), panel.top_z))
+            depth = float(rng.uniform(0.19, HAND_DEPTH_M[1]))
+            pixel = (0.5 * (w - 1) + rng.normal(0, 30), 0.5 * (h - 1) + rng.normal(0, 30))
+        else:  # on the way to a button (or the handle)
+            if handles and rng.random() < 0.15:
+                target = np.array(handles[0].centre)
+            else:
+                target = np.array(panel.button_centre(int(rng.integers(1, 10))))
+            depth = float(rng.uniform(*HAND_DEPTH_M))
+            if rng.random() < 0.5:  # where the servo brings it: the tool's axis at that depth
+                s = (depth - camera_p_tool[2])
+                on_axis = K @ (camera_p_tool + np.array([0.0, 0.0, s]))
+                pixel = (on_axis[0] / on_axis[2] + rng.normal(0, 15),
+                         min(on_axis[1] / on_axis[2], h - 40.0) + rng.normal(0, 15))
+            else:  # still aligning: anywhere in the image
+                pixel = (rng.uniform(50, w - 50), rng.uniform(50, h - 50))
+        tilt = float(np.clip(rng.normal(HAND_AXIS_TILT_RAD, math.radians(4)), math.radians(18), math.radians(42)))
+        pose = hand_camera_pose(target, depth, pixel, K, tilt, float(rng.normal(0, math.radians(4))),
+                                tuple(rng.normal(0, math.radians(1.0), 2)))
+        if sees_the_whole_panel_from_in_front(pose):  # else draw another (the arm would not be there either)
+            poses.append(pose)
+    settings, desk = _settings_and_desk(rng, seed)
+
+    def in_front(points, margin: float) -> bool:
+        # the renderer does not clip at a near plane (the rig never sees anything behind it): an object
+        # behind or at a hand camera would be painted over the whole image, so it is left out
+        pts = np.column_stack([np.atleast_2d(points), np.ones(len(np.atleast_2d(points)))])
+        return all(float((np.linalg.inv(T) @ pts.T)[2].min()) > margin for T in poses)
+
+    things = [th for th in things if in_front([th.x, th.y, th.height_m], 0.06 + th.radius_m)]
+    hands = tuple(hd for hd in hands if in_front([hd.x, hd.y, hd.z], 0.15))
+    handles = tuple(hd for hd in handles if in_front([hd.along(0.0), hd.along(hd.length_m)], 0.05))
+    state = SceneState(hands=hands, things=tuple(things), panels=(panel,), handles=handles)
+    return state, settings, desk, (poses[0], poses[1])
+
+
+def render_hand_scene(seed: int, classes: Sequence[str] = CLASSES) -> tuple[Sample, Sample]:
+    """Hand-camera scene ``seed`` seen from its two poses (side "hand")."""
+    state, settings, desk_index, poses = random_hand_scene(seed)
+    desk = desk_for(desk_index)
+    desk.set_scenario(_FixedScene(desk.marker_ids, state))
+    desk.set_camera_settings(settings)
+    K, size, _ = _hand_camera()
+    t = float(seed % 100_000)
+    out = []
+    for i, pose in enumerate(poses):
+        # the hand camera's own supersampling cap (HandCameraConfig.max_supersample): what the app renders
+        image, boxes = desk.render_camera(pose, K, size, t, boxes=True, noise_index=2 + i, max_supersample=2)
+        out.append(Sample(seed=seed, side="hand", image=image, boxes=_labelled(boxes, classes)))
+    return out[0], out[1]
+
+
+def _check_view(view: str) -> str:
+    if view not in VIEWS:
+        raise ValueError(f"view {view!r}: use one of {', '.join(VIEWS)} (the stereo rig, the hand camera, or "
+                         f"the training mix of both)")
+    return view
+
+
+def render_views(seed: int, classes: Sequence[str] = CLASSES, view: str = "stereo") -> tuple[Sample, Sample]:
+    """The two images of seed ``seed`` for ``view``: "stereo" (``render_scene``), "hand"
+    (``render_hand_scene``) or "both" (the training mix: hand when ``is_hand_scene(seed)``)."""
+    _check_view(view)
+    if view == "hand" or (view == "both" and is_hand_scene(seed)):
+        return render_hand_scene(seed, classes)
+    return render_scene(seed, classes)
+
+
+def render_samples(seeds: Iterable[int], classes: Sequence[str] = CLASSES, view: str = "stereo") -> Iterator[Sample]:
+    """The two images of each scene seed, in order (left, right, … or hand, hand, …; see render_views)."""
     for seed in seeds:
-        yield from render_scene(int(seed), classes)
+        yield from render_views(int(seed), classes, view)
 
 
 # ------------------------------------------------------------------------------------ training arrays
@@ -313,23 +536,25 @@ def renderer_fingerprint() -> str:
     keyed by it, so a change to how the desk is drawn never trains on stale images."""
     import sys
 
-    from core.sim import desk, rig, scenarios
+    from core.sim import desk, hand_camera, rig, scenarios
 
     crc = 0
-    for module in (desk, rig, scenarios, sys.modules[__name__]):
+    for module in (desk, rig, scenarios, hand_camera, sys.modules[__name__]):
         crc = zlib.crc32(Path(module.__file__).read_bytes(), crc)
     return f"{crc:08x}"
 
 
-def _chunk_path(cache_dir: Path, start: int, count: int, input_wh: tuple[int, int], classes: Sequence[str]) -> Path:
+def _chunk_path(cache_dir: Path, start: int, count: int, input_wh: tuple[int, int], classes: Sequence[str],
+                view: str) -> Path:
     tag = "-".join(classes)
-    return cache_dir / (f"desk-v{DATASET_VERSION}-{renderer_fingerprint()}-{input_wh[0]}x{input_wh[1]}-{tag}-"
+    return cache_dir / (f"desk-v{DATASET_VERSION}-{renderer_fingerprint()}-{view}-{input_wh[0]}x{input_wh[1]}-{tag}-"
                         f"{start:07d}-{count}.npz")
 
 
-def _build_chunk(path: Path, start: int, count: int, input_wh: tuple[int, int], classes: Sequence[str]) -> None:
+def _build_chunk(path: Path, start: int, count: int, input_wh: tuple[int, int], classes: Sequence[str],
+                 view: str) -> None:
     images, boxes, labels, difficult, counts = [], [], [], [], []
-    for sample in render_samples(range(start, start + count), classes):
+    for sample in render_samples(range(start, start + count), classes, view):
         img, b, lab, d = _letterbox_sample(sample, input_wh, classes)
         images.append(img)
         boxes.append(b)
@@ -344,12 +569,14 @@ def _build_chunk(path: Path, start: int, count: int, input_wh: tuple[int, int], 
 
 
 def training_arrays(n_images: int, input_wh: tuple[int, int], cache_dir: Path, classes: Sequence[str] = CLASSES,
-                    first_seed: int = 0, progress: Optional[Callable[[str], None]] = None):
-    """``n_images`` training images (both views of scenes ``first_seed`` …), letterboxed to
+                    first_seed: int = 0, progress: Optional[Callable[[str], None]] = None, view: str = "both"):
+    """``n_images`` training images (the two images of scenes ``first_seed`` …, from the cameras
+    ``view`` says: default the mix of stereo-rig and hand-camera scenes), letterboxed to
     ``input_wh`` as OnnxYoloDetector feeds its network: (images (N, H, W, 3) BGR uint8,
     boxes [(K, 4) input px], labels [(K,)], difficult [(K,)]). Rendered once, then read from
     .npz chunks of up to CHUNK_SCENES scenes in ``cache_dir`` (named after ``renderer_fingerprint``)."""
     say = progress or (lambda text: None)
+    _check_view(view)
     if first_seed % CHUNK_SCENES:
         raise ValueError(f"first_seed {first_seed} must be a multiple of {CHUNK_SCENES}")
     n_scenes = -(-int(n_images) // 2)
@@ -359,10 +586,10 @@ def training_arrays(n_images: int, input_wh: tuple[int, int], cache_dir: Path, c
     need = 2 * n_scenes
     for start in range(first_seed, first_seed + n_scenes, CHUNK_SCENES):
         count = min(CHUNK_SCENES, first_seed + n_scenes - start)
-        path = _chunk_path(cache_dir, start, count, input_wh, classes)
+        path = _chunk_path(cache_dir, start, count, input_wh, classes, view)
         if not path.exists():
             t0 = time.perf_counter()
-            _build_chunk(path, start, count, input_wh, classes)
+            _build_chunk(path, start, count, input_wh, classes, view)
             say(f"rendered scenes {start}…{start + count - 1} in {time.perf_counter() - t0:.1f} s → {path}")
         with np.load(path) as z:
             imgs, b, lab, d, counts = z["images"], z["boxes"], z["labels"], z["difficult"], z["counts"]
@@ -380,17 +607,21 @@ def training_arrays(n_images: int, input_wh: tuple[int, int], cache_dir: Path, c
 
 # ------------------------------------------------------------------------------------ scoring
 def score_detector(detector, n_images: int, first_seed: int = TEST_SEED_BASE, classes: Sequence[str] = CLASSES,
-                   iou_threshold: float = 0.5, score_threshold: float = 0.25) -> tuple[DetectionScores, dict]:
+                   iou_threshold: float = 0.5, score_threshold: float = 0.25,
+                   view: str = "stereo") -> tuple[DetectionScores, dict]:
     """AP per class and mAP@``iou_threshold`` of ``detector`` (anything with ``detect(image)`` →
     detections with ``label``, ``score``, ``box`` (x, y, w, h px)) on ``n_images`` held-out renders
-    (both views of scenes ``first_seed`` …). Returns (scores, timing: render and detect ms per image)."""
+    (the two images of scenes ``first_seed`` … seen by ``view``: "stereo" the rig's two views,
+    "hand" two hand-camera poses, "both" the training mix). Returns (scores, timing: render and
+    detect ms per image)."""
+    _check_view(view)
     n_scenes = -(-int(n_images) // 2)
     truths, found = [], []
     render_s = detect_s = 0.0
     seeds = iter(held_out_seeds(n_scenes, first_seed))
     while len(truths) < n_images:
         t0 = time.perf_counter()
-        pair = render_scene(next(seeds), classes)
+        pair = render_views(next(seeds), classes, view)
         render_s += time.perf_counter() - t0
         for sample in pair[:n_images - len(truths)]:
             t0 = time.perf_counter()

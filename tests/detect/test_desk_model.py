@@ -1,7 +1,8 @@
 """The detector deskarm ships (resources/models/desk_objects.onnx, ``make_detector("desk")``).
 
 CI (no torch): the shipped file loads in OpenCV's DNN module, names its classes from its own
-metadata and finds the objects of fresh held-out renders and of the app's scenarios.
+metadata and finds the objects of fresh held-out renders and of the app's scenarios — the stereo
+rig's views and the assistive arm's hand camera's close, steep views of the lift panel.
 With torch (the ``train`` extra): a few training steps on a handful of renders export a model
 that OpenCV loads and whose output matches torch's.
 """
@@ -15,6 +16,9 @@ from core.sim.dataset import CLASSES, TEST_SEED_BASE, random_scene, render_scene
 
 PICK_FROM = TEST_SEED_BASE + 5000  # away from eval-detector's default seeds (same held-out range)
 MIN_RECALL = 0.9
+# hand camera: the buttons it must find (non-difficult, IoU ≥ 0.5) out of those of fresh hand-camera
+# renders; see test_it_finds_the_buttons_in_fresh_hand_camera_views for why this value
+MIN_HAND_BUTTON_RECALL = 0.9
 
 
 @pytest.fixture(scope="module")
@@ -57,6 +61,7 @@ def test_the_shipped_model_is_small_and_runs_in_opencv_dnn_with_names_from_its_m
     assert desk.names == list(CLASSES) and desk.names_source == "model metadata"
     assert desk.input_wh == (320, 240)
     assert "map50" in desk.info.metadata.get("deskarm_eval", "")
+    assert '"view": "hand"' in desk.info.metadata.get("deskarm_eval_hand", "")
 
 
 def test_it_finds_every_kind_of_object_on_fresh_renders(desk):
@@ -96,6 +101,26 @@ def test_it_finds_the_objects_of_the_apps_scenarios(desk, scenario, t, expected)
                                      for d in mine]).reshape(-1, 4))
             hits = int((ious.max(axis=1) >= 0.5).sum()) if len(mine) else 0
             assert hits == count, f"{scenario} {side}: {hits}/{count} {label}s found ({[d.to_dict() for d in mine]})"
+
+
+def test_it_finds_the_buttons_in_fresh_hand_camera_views(desk):
+    """Held-out hand-camera scenes (the assistive arm's ready view and approaches, unseen desks).
+    The model's held-out recall of buttons at score 0.25 is 1.00 (1453 buttons in 200 images,
+    resources/models/README.md); on these 12 images (82 buttons) up to one miss in ten still
+    passes (room for another runtime's rounding or a retrained model), while the stereo-only
+    model it replaces found none of them (0/82: it fails this test)."""
+    from core.sim.dataset import render_hand_scene
+
+    found = owed = 0
+    missed = []
+    for seed in range(PICK_FROM, PICK_FROM + 6):
+        for i, sample in enumerate(render_hand_scene(seed)):
+            buttons = [b for b in sample.boxes if b.label == "button"]
+            f, o, m = match(desk.detect(sample.image), buttons)
+            found, owed = found + f, owed + o
+            missed += [f"hand scene {seed} pose {i}: {text}" for text in m]
+    assert owed >= 40
+    assert found / owed >= MIN_HAND_BUTTON_RECALL, f"recall {found}/{owed}; missed (first 10): {missed[:10]}"
 
 
 def test_the_readme_beside_the_model_states_its_score():
@@ -151,10 +176,22 @@ def test_eval_detector_prints_the_score_of_the_shipped_model_as_json(capsys):
     assert result["timing"]["detect_ms_per_image"] > 0
 
 
+def test_eval_detector_scores_hand_camera_views_when_asked(capsys):
+    import json
+
+    from app.cli_train import main
+
+    assert main(["eval-detector", "--images", "2", "--seed", str(PICK_FROM), "--view", "hand", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["view"] == "hand" and result["images"] == 2
+    assert result["classes"]["button"]["n_truth"] > 0
+
+
 @pytest.mark.parametrize("argv, message", [
     (["eval-detector", "--seed", "5"], "held-out scenes start at"),
     (["eval-detector", "no/such/model.onnx"], "model not found"),
     (["eval-detector", "--images", "0"], "must be greater than 0"),
+    (["eval-detector", "--view", "top"], "invalid choice: 'top'"),
     (["train-detector", "--input", "300x200"], "multiples of 16"),
 ])
 def test_bad_options_are_one_line_and_exit_2(capsys, argv, message):

@@ -28,3 +28,20 @@ def test_cli_rejects_a_bad_scan_period(capsys):
 def test_depth_from_the_range_sensor_runs_the_loop_too():
     summary, results = run_trials(1, "touch", seed=2, depth_source="range")
     assert summary["depth"] == "range" and len(results) == 1 and results[0].events
+
+
+def test_the_learned_desk_detector_runs_the_trials_and_presses_the_wanted_button(capsys):
+    assert run("assist-trials", ["--n", "2", "--detector", "desk", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["detector"] == "desk" and out["trials"] == 2
+    # success = the chosen button itself went down, the tool tip within 3 mm of its centre
+    assert out["success_rate"] == 1.0 and out["wrong_button_pressed"] == 0 and out["selections_wrong"] == 0, out
+    assert out["detect_ms_per_call"] > 0 and out["depth_error_pct_median"] is not None
+
+
+def test_cli_rejects_an_unknown_detector(capsys):
+    try:
+        code = run("assist-trials", ["--n", "1", "--detector", "yolo"])
+    except SystemExit as exc:  # argparse's own error
+        code = exc.code
+    assert code == 2 and "--detector" in capsys.readouterr().err
