@@ -179,17 +179,18 @@ def save_assist_settings(settings: AssistSettings, path: Optional[Path] = None) 
 # the simulated desk's loop
 
 
-def build_sim_loop(seed: int = 0, vibration: bool = False, passing_hand: bool = False):
+def build_sim_loop(seed: int = 0, vibration: bool = False, passing_hand: bool = False, detector: str = "circles"):
     """(AssistLoop, ready pose) on the simulated desk: the lift panel of ``deskarm assist-trials``
     (its first trial's place) as a panel that answers — a pushed button goes down and its ring
     lights (``core.sim.assist_scene``) — the ``assistive_5dof`` arm at its ready pose. With
-    ``passing_hand`` the ``panel`` scenario's hand reaches in now and then."""
+    ``passing_hand`` the ``panel`` scenario's hand reaches in now and then. ``detector``: the button
+    detector (``app.cli_assist.make_assist_detector``: "circles" or "desk")."""
     import numpy as np
 
     from app.cli_assist import AssistTrials, trial_scene
     from core.sim.assist_scene import AssistPanelScene, PressFeedbackCamera
 
-    trials = AssistTrials("touch", vibration=vibration, seed=seed)
+    trials = AssistTrials("touch", vibration=vibration, seed=seed, detector=detector)
     placed = trial_scene(np.random.default_rng([int(seed), 0, 12]))
     scene = AssistPanelScene(placed.panel(), placed.handle, passing_hand=passing_hand)
     trials.desk.set_scenario(scene)
@@ -201,17 +202,17 @@ def build_sim_loop(seed: int = 0, vibration: bool = False, passing_hand: bool = 
 
 
 def build_webcam_loop(device, bridge=None, depth: str = "auto", calibration=None, capture_factory=None,
-                      ready_q=None):
+                      ready_q=None, detector: str = "circles"):
     """(AssistLoop, ready pose) on a real hand camera: webcam ``device`` on the ``assistive_5dof``
     arm (``core.devices.hand_camera.WebcamHandCamera``), the circle detector and the servo of the
     trials. Depth: "size" (the button's known size), "range" (the v2 board's HC-SR04 through
     ``bridge.range_m``) or "auto" (the range when the board has a reading, else the size; with no
     board or a board without ``range_m``, the size). The webcam may be missing: the loop runs on
     black frames and the camera's ``status_message`` says why. ``ready_q``: the ready pose
-    (default: ``nominal_ready_pose``, the camera on a panel where the simulated desk has it)."""
+    (default: ``nominal_ready_pose``, the camera on a panel where the simulated desk has it).
+    ``detector``: "circles" (default) or "desk" (``app.cli_assist.make_assist_detector``)."""
     from app.cli_assist import (APPROACH_SPEED_M_S, AXIS_TILT_RAD, DETECT_EVERY, FRAME_DT_S, MAX_LINEAR_SPEED_M_S,
-                                PRESS_DEPTH_M, SERVO_GAIN, nominal_ready_pose)
-    from core.detect.registry import make_detector
+                                PRESS_DEPTH_M, SERVO_GAIN, make_assist_detector, nominal_ready_pose)
     from core.devices.hand_camera import BridgeRangeSensor, WebcamHandCamera
     from core.kinematics.clik import ClikKinematics
     from core.kinematics.profile import load_profile
@@ -232,7 +233,7 @@ def build_webcam_loop(device, bridge=None, depth: str = "auto", calibration=None
     camera.connect(keep_trying=True)
     servo = IbvsController(kin, camera.K, IbvsConfig(axis_tilt_rad=AXIS_TILT_RAD, gain=SERVO_GAIN,
                                                       max_linear_speed_m_s=MAX_LINEAR_SPEED_M_S))
-    detector = make_detector("circles", max_objects=16, min_radius_px=12)
+    detector = make_assist_detector(detector)
     config = AssistConfig(press_depth_m=PRESS_DEPTH_M, approach_speed_m_s=APPROACH_SPEED_M_S)
     ready_q = nominal_ready_pose(kin, camera.K) if ready_q is None else tuple(float(v) for v in ready_q)
     loop = AssistLoop(kin, camera, detector, servo, config, ready_q, depth_source=depth,
@@ -1101,7 +1102,7 @@ class AssistWindow(QtWidgets.QMainWindow):
 
 def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False,
                       hand_camera=None, switches=(), depth: str = "auto", bridge_url: str = "sim://",
-                      passing_hand: bool = False) -> int:
+                      passing_hand: bool = False, detector: str = "circles") -> int:
     """Open the assistive view (wall clock) and run until it is closed: on the simulated desk, or
     with ``hand_camera`` (a webcam device: ``core.devices.hand_camera.parse_hand_camera_spec``) on a
     real one. ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO / keys).
@@ -1125,9 +1126,10 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
         if not ready_note:
             ready_q = tuple(math.radians(v) for v in settings.ready_deg)
     if hand_camera is None:
-        factory = lambda: build_sim_loop(seed, vibration, passing_hand)  # noqa: E731
+        factory = lambda: build_sim_loop(seed, vibration, passing_hand, detector)  # noqa: E731
     else:
-        factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth, ready_q=ready_q)  # noqa: E731
+        factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth, ready_q=ready_q,  # noqa: E731
+                                            detector=detector)
     window = AssistWindow(factory, worker_clock="wall", arm_factory=guarded_arm_factory(bridge))
     if ready_note:
         window.settings_warnings.append(f"{ready_note}; the default ready pose is used")

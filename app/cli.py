@@ -44,7 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "machine, e.g. tcp/192.168.1.20:7447")
     p.add_argument("--detector", default=None, metavar="NAME[,NAME…]",
                    help="also locate marker-less objects in 3D with these detectors (e.g. hsv, circles, "
-                        "onnx:PATH; the headless JSON then scores them against the simulated desk's truth)")
+                        "onnx:PATH; the headless JSON then scores them against the simulated desk's truth); "
+                        "with --assist: the hand camera's button detector, circles (default) or desk")
     p.add_argument("--follow-object", default=None, metavar="LABEL",
                    help="headless: the arm follows a marker-less object, e.g. \"green ball\", \"red\" or "
                         "\"ball\" (needs --detector): it aims where a moving object will be and approaches a "
@@ -152,6 +153,13 @@ def run_assist(args) -> int:
     except ValueError as exc:
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2
+    from app.cli_assist import ASSIST_DETECTORS
+
+    detector = args.detector or "circles"
+    if detector not in ASSIST_DETECTORS:
+        print(f"deskarm: --detector {detector} with --assist: the hand camera's button detector is one of "
+              f"{', '.join(ASSIST_DETECTORS)}", file=sys.stderr)
+        return 2
     refusal = assist_real_arm_refusal(args.bridge, real_arm, args.hand_camera)
     if refusal:
         print(f"deskarm: {refusal}", file=sys.stderr)
@@ -159,7 +167,7 @@ def run_assist(args) -> int:
     from app.assist_window import run_assist_window
 
     return run_assist_window(size, hand_camera=hand_camera, switches=switches, bridge_url=args.bridge,
-                             passing_hand=args.scenario == "panel")
+                             passing_hand=args.scenario == "panel", detector=detector)
 
 
 def assist_real_arm_refusal(bridge_url: str, real_arm: bool, hand_camera_spec) -> str:

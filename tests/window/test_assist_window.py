@@ -328,3 +328,22 @@ def test_the_view_stays_live_while_the_user_chooses(qtbot):
     finally:
         w.stop()
     assert w.worker.isFinished()
+
+
+def test_the_learned_desk_model_finds_the_buttons_and_7_is_pressed(qtbot):
+    """``deskarm --assist --detector desk``: the shipped model's button boxes are offered and followed."""
+    w = AssistWindow(lambda: build_sim_loop(0, detector="desk"), worker_clock="sim")
+    w.set_settings(AssistSettings(mode="touch"))
+    qtbot.addWidget(w)
+    texts = []
+    w.sigStateText.connect(texts.append)
+    try:
+        w.start()
+        qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)
+        assert len(w.boxes) == 9
+        x, y, bw, bh = w.hit_boxes[6]
+        click_image_point(qtbot, w, (x + bw / 2, y + bh / 2))
+        wait_for_press(qtbot, w, texts, 7)
+    finally:
+        w.stop()
+    assert w.worker.isFinished()
