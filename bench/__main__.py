@@ -45,6 +45,9 @@ def collect(quick: bool = False) -> list[dict]:
     from bench import bench_window
 
     rows += bench_window.rows(quick)
+    from bench import bench_assist_window
+
+    rows += bench_assist_window.rows(quick)  # against bench_window's idle row
     from bench import bench_detect
 
     rows += bench_detect.rows(quick)
