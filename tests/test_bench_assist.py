@@ -11,3 +11,11 @@ def test_assist_rows_have_samples_and_a_baseline():
         assert r["samples"] and all(s > 0 for s in r["samples"]), r["name"]
     assert all(r["baseline"] == bench_assist.BASELINE for r in rows[1:])
     assert len(rows[1]["samples"]) == len(rows[3]["samples"])  # the chain timed on the same frames as the loop
+
+
+def test_the_assist_window_child_samples_cpu_and_frames():
+    from bench import bench_assist_window
+
+    r = bench_assist_window.measure("choosing", 1.0)
+    assert len(r["cpu_pct"]) == 1 and r["cpu_pct"][0] > 0
+    assert r["frames_fps"][0] > 0  # the live view kept coming while the user chooses
