@@ -31,14 +31,14 @@ only needs the target near the image centre, where it is smallest).
 from __future__ import annotations
 
 import math
-import os
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
 import numpy as np
+
+from core.capture import default_capture_factory, open_quietly
 
 DEFAULT_HFOV_DEG = 60.0  # the default intrinsics' horizontal field of view (no calibration file)
 RETRY_INTERVAL_S = 1.0  # an unplugged webcam is opened again this often
@@ -123,17 +123,6 @@ class HandCameraFrame:
     boxes: Optional[dict] = field(default=None)  # no truth on a real desk
 
 
-def _default_factory(device):
-    """cv2.VideoCapture on V4L2 (Linux; by-id links resolved), else the default backend."""
-    import cv2
-
-    if sys.platform.startswith("linux"):
-        if isinstance(device, str):
-            device = os.path.realpath(device)
-        return cv2.VideoCapture(device, cv2.CAP_V4L2)
-    return cv2.VideoCapture(device)
-
-
 class WebcamHandCamera:
     """A webcam on the arm's hand (see the module docstring).
 
@@ -153,7 +142,7 @@ class WebcamHandCamera:
         self.device = device
         self.kinematics = kinematics
         self.width, self.height, self.fps = int(width), int(height), float(fps)
-        self._factory = capture_factory or _default_factory
+        self._factory = capture_factory or default_capture_factory
         self.retry_interval_s = float(retry_interval_s)
         self.max_failures = int(max_failures)
         self._clock = clock
@@ -191,7 +180,7 @@ class WebcamHandCamera:
 
         self._next_retry = self._clock() + self.retry_interval_s
         try:
-            cap = self._factory(self.device)
+            cap = open_quietly(self._factory, self.device)  # a missing camera is reported by us, once
         except Exception as exc:  # noqa: BLE001 — a backend failure is a missing camera, reported below
             cap, reason = None, f" ({type(exc).__name__}: {exc})"
         else:

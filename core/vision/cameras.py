@@ -27,6 +27,7 @@ from typing import Callable, Deque, Optional, Sequence
 
 import numpy as np
 
+from core.capture import default_capture_factory, open_quietly  # noqa: F401 (re-exported)
 from core.clock import SimClock, WallClock
 from core.messages import SequenceCounter, StereoFrame
 from core.settings import CameraSettings
@@ -260,32 +261,6 @@ class ClockPacedSource(CameraSource):
 # webcams
 
 
-def _quietly(factory, dev):
-    """Open a capture without OpenCV's backend warnings (a missing camera is reported by us)."""
-    import cv2
-
-    logging = getattr(getattr(cv2, "utils", None), "logging", None)
-    if logging is None:
-        return factory(dev)
-    previous = logging.getLogLevel()
-    logging.setLogLevel(logging.LOG_LEVEL_ERROR)
-    try:
-        return factory(dev)
-    finally:
-        logging.setLogLevel(previous)
-
-
-def default_capture_factory(device):
-    """cv2.VideoCapture on the V4L2 backend (Linux; by-id links resolved), else the default one."""
-    import cv2
-
-    if sys.platform.startswith("linux"):
-        if isinstance(device, str):
-            device = os.path.realpath(device)
-        return cv2.VideoCapture(device, cv2.CAP_V4L2)
-    return cv2.VideoCapture(device)
-
-
 def pick_pair(left: Sequence[tuple[float, int]], right: Sequence[tuple[float, int]],
               last: Optional[tuple[int, int]] = None) -> Optional[tuple[int, int]]:
     """Pair frames by timestamp: the lagging camera's newest frame with the other camera's frame
@@ -325,7 +300,7 @@ class _Grabber:
         import cv2
 
         o = self.owner
-        cap = _quietly(o._factory, self.device)
+        cap = open_quietly(o._factory, self.device)
         if cap is None or not cap.isOpened():
             if cap is not None:
                 cap.release()
@@ -947,5 +922,5 @@ __all__ = [
     "FolderStereoCamera", "CameraError",
     "CameraControl", "CONTROL_NAMES", "open_camera", "parse_camera_spec", "camera_spec", "CameraSpec",
     "CAMERA_CHOICES", "SimClock", "pick_pair", "find_image_pairs", "pair_image_files",
-    "v4l2_control_ranges", "default_capture_factory",
+    "v4l2_control_ranges", "default_capture_factory", "open_quietly",
 ]
