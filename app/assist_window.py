@@ -52,6 +52,9 @@ ASSIST_SETTINGS_FILE = "assist.toml"
 MODES = ("touch", "scan2", "scan1")
 MODE_NAMES = {"touch": "Touch", "scan2": "2 switches", "scan1": "1 switch"}
 SCAN_TICK_MS = 40  # how often the timed scan and the long-press hold are checked
+# the live view while nothing moves (choosing, stopped): 10 frames/s is enough to see the scene
+# change and costs a third of 30 (make bench: "assist window CPU choosing")
+PREVIEW_PERIOD_S = 0.1
 BOX_GROWTH_MAX = 1.6  # boxes are drawn (and hit-tested) up to this much larger than the detected circle …
 BOX_GAP_FRACTION = 0.9  # … but no larger than this fraction of the distance to the nearest neighbour
 
@@ -449,7 +452,7 @@ class AssistWorker(QtCore.QThread):
             while self._running.is_set():
                 loop = self.loop
                 idle = self.engaged or not loop.busy
-                wait_s = loop.frame_dt_s if preview else 0.2
+                wait_s = PREVIEW_PERIOD_S if preview else 0.2
                 try:  # commands: waited for when there is nothing to do, else only taken
                     command = self._commands.get(timeout=wait_s) if idle else self._commands.get_nowait()
                 except queue.Empty:
@@ -472,7 +475,7 @@ class AssistWorker(QtCore.QThread):
                         self._arm_lost(f"the arm's board went away: {self.arm.message or 'no answer'}")
                         self._emit_status()
                     now_s = time.monotonic()
-                    if preview and not loop.busy and now_s - last_preview >= loop.frame_dt_s:
+                    if preview and not loop.busy and now_s - last_preview >= PREVIEW_PERIOD_S:
                         # the camera keeps showing what it sees while the user chooses (or while
                         # stopped); the boxes stay as offered — the arm holds still at its pose
                         loop.t += min(now_s - last_preview, 1.0)
