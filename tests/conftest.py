@@ -41,3 +41,29 @@ def board(host_firmware):
         yield b
     finally:
         b.stop()
+
+
+@pytest.fixture(autouse=True)
+def _qt_garbage_in_the_gui_thread():
+    """Once Qt is loaded, Python's automatic garbage collection is off and each test ends with a
+    collection here, in the GUI thread, after the widgets pytest-qt closed (``deleteLater``) are
+    deleted. Left automatic, a collection can start in any thread that allocates — a simulated
+    camera's render thread — and delete a Qt object (a window of an earlier test, in a reference
+    cycle) there while the GUI thread is delivering events to it: Python aborted that way in CI,
+    "pure virtual method called" inside ``processEvents`` with no Python frame. Tests that never
+    import Qt keep the automatic collector."""
+    yield
+    import sys
+
+    if "PySide6.QtCore" not in sys.modules:
+        return
+    import gc
+
+    from PySide6 import QtCore
+
+    gc.disable()
+    if QtCore.QCoreApplication.instance() is not None:
+        QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
+    gc.collect()
+    if QtCore.QCoreApplication.instance() is not None:
+        QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
