@@ -1115,7 +1115,7 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     desk, a hand reaches in over the panel now and then."""
     import math
 
-    from app.startup import make_app
+    from app.startup import GuiThreadGarbage, make_app
     from core.devices import open_bridge
     from core.kinematics.profile import load_profile
 
@@ -1140,6 +1140,8 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     if switches:
         window.set_settings(with_switches(window.settings, switches))
     app.aboutToQuit.connect(window.stop)
+    garbage = GuiThreadGarbage(app)  # collections only in the GUI thread (see app/startup.py)
+    app.aboutToQuit.connect(garbage.stop)
     screen = app.primaryScreen()
     free = screen.availableGeometry() if screen is not None else None
     if free is not None and free.width() <= size[0] and free.height() <= size[1]:

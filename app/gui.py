@@ -32,7 +32,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from app.calibration_worker import CalibrationController
 from app.hand_eye import HandEyeController
 from app.preferences import WindowPreferences
-from app.startup import finish_splash, make_app
+from app.startup import GuiThreadGarbage, finish_splash, make_app
 from app.workers import WorkerSet
 from core.detect.colour import DEFAULT_COLOURS, colour_from_pixel
 from core.messages import TargetMode
@@ -1978,6 +1978,8 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     fitted, maximise = fit_window_size(size, (free.width(), free.height()))
     app.aboutToQuit.connect(window.stop)
     freeze_startup_objects()  # short young-generation collections while the loop runs
+    garbage = GuiThreadGarbage(app)  # … and only in the GUI thread
+    app.aboutToQuit.connect(garbage.stop)
     if window.preferences.geometry_restored:  # where the user left it (it fits this screen)
         window.show()
     elif maximise:

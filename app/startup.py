@@ -13,6 +13,46 @@ from typing import Optional
 from PySide6 import QtCore, QtGui, QtWidgets
 
 SPLASH_SIZE = (420, 150)
+GARBAGE_PERIOD_MS = 1000  # GuiThreadGarbage: a young-generation collection this often …
+GARBAGE_FULL_EVERY = 60  # … and a full one every this many
+
+
+class GuiThreadGarbage(QtCore.QObject):
+    """Python's garbage collection for a running window, only ever in the GUI thread.
+
+    Left automatic, a collection starts in whichever thread allocates at that moment — a camera
+    or render thread does so 30 times a second — and may delete a Qt object caught in a
+    reference cycle (a closed dialog, a replaced widget) there, while the GUI thread is
+    delivering an event to it: Python then aborts ("pure virtual method called"). This turns
+    the automatic collector off and collects from a GUI-thread timer instead (young generations
+    every ``GARBAGE_PERIOD_MS``, everything every ``GARBAGE_FULL_EVERY`` ticks); the workers'
+    loops also no longer pause for a collection. ``stop()`` turns the automatic one back on."""
+
+    def __init__(self, parent: QtCore.QObject, period_ms: int = GARBAGE_PERIOD_MS,
+                 full_every: int = GARBAGE_FULL_EVERY):
+        import gc
+
+        super().__init__(parent)
+        self.collections = 0
+        self._full_every = max(1, int(full_every))
+        self._timer = QtCore.QTimer(self)
+        self._timer.setInterval(int(period_ms))
+        self._timer.timeout.connect(self.collect)
+        gc.disable()
+        self._timer.start()
+
+    @QtCore.Slot()
+    def collect(self) -> None:
+        import gc
+
+        self.collections += 1
+        gc.collect(2 if self.collections % self._full_every == 0 else 1)
+
+    def stop(self) -> None:
+        import gc
+
+        self._timer.stop()
+        gc.enable()
 
 
 def make_app() -> QtWidgets.QApplication:

@@ -43,27 +43,38 @@ def board(host_firmware):
         b.stop()
 
 
-@pytest.fixture(autouse=True)
-def _qt_garbage_in_the_gui_thread():
-    """Once Qt is loaded, Python's automatic garbage collection is off and each test ends with a
-    collection here, in the GUI thread, after the widgets pytest-qt closed (``deleteLater``) are
-    deleted. Left automatic, a collection can start in any thread that allocates — a simulated
-    camera's render thread — and delete a Qt object (a window of an earlier test, in a reference
-    cycle) there while the GUI thread is delivering events to it: Python aborted that way in CI,
-    "pure virtual method called" inside ``processEvents`` with no Python frame. Tests that never
-    import Qt keep the automatic collector."""
-    yield
-    import sys
+_FROZE_IMPORTS = []  # set once the first Qt test has frozen the start-up objects
 
-    if "PySide6.QtCore" not in sys.modules:
+
+@pytest.fixture(autouse=True)
+def _qt_garbage_in_the_gui_thread(request):
+    """Qt tests (those using qtbot) run with Python's automatic garbage collection off and end
+    with a collection here, in the GUI thread, after the widgets pytest-qt closed
+    (``deleteLater``) are deleted. Left automatic, a collection can start in any thread that
+    allocates — a simulated camera's render thread — and delete a Qt object (a window of an
+    earlier test, in a reference cycle) there while the GUI thread delivers events to it: Python
+    aborted that way in CI, "pure virtual method called" inside ``processEvents`` with no Python
+    frame. The app does the same (app/startup.py GuiThreadGarbage). Objects alive before the
+    first Qt test (imports, models) are frozen so these collections stay short."""
+    if "qtbot" not in request.fixturenames:
+        yield
         return
     import gc
 
-    from PySide6 import QtCore
-
+    if not _FROZE_IMPORTS:
+        gc.collect()
+        gc.freeze()
+        _FROZE_IMPORTS.append(True)
     gc.disable()
-    if QtCore.QCoreApplication.instance() is not None:
-        QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
-    gc.collect()
-    if QtCore.QCoreApplication.instance() is not None:
-        QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
+    try:
+        yield
+    finally:
+        from PySide6 import QtCore
+
+        app = QtCore.QCoreApplication.instance()
+        if app is not None:
+            QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
+        gc.collect()
+        if app is not None:
+            QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.Type.DeferredDelete)
+        gc.enable()
