@@ -43,6 +43,7 @@ from typing import Callable, Optional
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from core.devices.bridge import parse_bridge_url
 from core.motion.scanning import MAX_PERIOD_S, MIN_PERIOD_S, OneSwitchScanner, TouchSelector, TwoSwitchScanner
 from widgets._style import BUTTON_STYLE, SPIN_STYLE, TOUCH_PX
 from widgets.assist_view import AssistView
@@ -278,7 +279,8 @@ class AssistWorker(QtCore.QThread):
     - sigStatus(LoopStatus): the loop's state changed (or its outcome)
     - sigFrame(): a new image is waiting in ``take_frame()`` (sent again only after a take)
     - sigError(str): the loop could not be built or failed; the worker has ended
-    - sigArm(str): the driven arm's state changed ("" without one; see ``arm_text``)
+    - sigArm(str, str): the driven arm's state changed: ("connected" | "simulated" | "E-STOP" |
+      "not connected", ``arm_text``), or ("", "") without an arm
     - sigStopped(str): the worker stopped the arm by itself (its board went away) — the window
       shows it as a STOP with that reason; RE-ARM reconnects and goes back to the ready pose
 
@@ -292,7 +294,7 @@ class AssistWorker(QtCore.QThread):
     sigStatus = QtCore.Signal(object)
     sigFrame = QtCore.Signal()
     sigError = QtCore.Signal(str)
-    sigArm = QtCore.Signal(str)
+    sigArm = QtCore.Signal(str, str)
     sigStopped = QtCore.Signal(str)
 
     def __init__(self, loop_factory: Callable[[], tuple], clock: str = "sim", parent=None,
@@ -401,14 +403,17 @@ class AssistWorker(QtCore.QThread):
         """``arm_text``: "<url>: connected", "<url>: E-STOP" or "<url>: NOT CONNECTED — <the bridge's words>"."""
         arm = self.arm
         if arm is None:
-            text = ""
+            state, text = "", ""
         elif arm.connected:
-            text = f"{arm.bridge.url}: " + ("E-STOP" if arm.bridge.is_estopped else "connected")
+            state = "E-STOP" if arm.bridge.is_estopped else "connected"
+            text = f"{arm.bridge.url}: {state}"
+            if state == "connected" and parse_bridge_url(arm.bridge.url) == "sim":
+                state = "simulated"
         else:
-            text = f"{arm.bridge.url}: NOT CONNECTED — {arm.message or 'no answer'}"
+            state, text = "not connected", f"{arm.bridge.url}: NOT CONNECTED — {arm.message or 'no answer'}"
         if text != self.arm_text:
             self.arm_text = text
-            self.sigArm.emit(text)
+            self.sigArm.emit(state, text)
 
     def _arm_begin(self) -> None:
         """Connect the arm (or keep waiting for it), then move from where it is to the ready pose."""
@@ -824,6 +829,11 @@ class AssistWindow(QtWidgets.QMainWindow):
         if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
             self.set_settings(dialog.settings)
 
+    def add_warning(self, text: str) -> None:
+        """A settings problem the user should see (shown under the hint)."""
+        self.settings_warnings.append(text)
+        self._update_hint()
+
     def _update_hint(self) -> None:
         s = self.settings
         names = lambda t: " / ".join(n.split(":", 1)[1] for n in t)  # noqa: E731
@@ -860,17 +870,13 @@ class AssistWindow(QtWidgets.QMainWindow):
         if status is not None and status.state in ("ALIGN", "APPROACH", "ACT") and not self.engaged:
             self.view.set_follow(status.centre_px, status.radius_px)
 
-    def _on_arm(self, text: str) -> None:
+    def _on_arm(self, state: str, text: str) -> None:
         """One short line in the side column (the narrow 800x480 layout); the bridge's whole
         message goes to the tooltip and, when something is wrong, to the log."""
-        url, _, state = text.partition(": ")
-        short = "arm: not connected" if state.startswith("NOT CONNECTED") else f"arm: {state}"
-        if url.startswith("sim") and state == "connected":
-            short = "arm: simulated"
-        self.arm_label.setText(short)
+        self.arm_label.setText(f"arm: {state}")
         self.arm_label.setToolTip(text)
-        self.arm_label.setVisible(bool(text))
-        bad = "NOT CONNECTED" in text or "E-STOP" in text
+        self.arm_label.setVisible(bool(state))
+        bad = state in ("E-STOP", "not connected")
         self.arm_label.setStyleSheet("color: white; background: #b00020; padding: 2px;" if bad else "color: #1b5e20;")
         if bad:
             print(f"deskarm --assist: arm {text}", file=sys.stderr)
@@ -1120,23 +1126,22 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     from core.kinematics.profile import load_profile
 
     app = make_app()
-    settings, _warnings = load_assist_settings()
     profile = load_profile("assistive_5dof")
     bridge = open_bridge(bridge_url, profile)  # not connected yet: the worker connects it
-    ready_q, ready_note = None, ""
-    if settings.ready_deg:
-        ready_note = ready_pose_problem(settings.ready_deg, profile)
-        if not ready_note:
-            ready_q = tuple(math.radians(v) for v in settings.ready_deg)
+    ready: dict = {}  # the settings' ready pose, read once the window has loaded them (before start)
     if hand_camera is None:
         factory = lambda: build_sim_loop(seed, vibration, passing_hand, detector)  # noqa: E731
     else:
-        factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth, ready_q=ready_q,  # noqa: E731
-                                            detector=detector)
+        factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth,  # noqa: E731
+                                            ready_q=ready.get("q"), detector=detector)
     window = AssistWindow(factory, worker_clock="wall", arm_factory=guarded_arm_factory(bridge))
-    if ready_note:
-        window.settings_warnings.append(f"{ready_note}; the default ready pose is used")
-        window._update_hint()
+    ready_deg = window.settings.ready_deg
+    if ready_deg:
+        problem = ready_pose_problem(ready_deg, profile)
+        if problem:
+            window.add_warning(f"{problem}; the default ready pose is used")
+        else:
+            ready["q"] = tuple(math.radians(v) for v in ready_deg)
     if switches:
         window.set_settings(with_switches(window.settings, switches))
     app.aboutToQuit.connect(window.stop)
