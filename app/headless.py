@@ -94,6 +94,11 @@ class Reservoir(list):
         return self
 
 
+def rounded(v, nd: int = 3):
+    """A summary figure rounded to ``nd`` places (None stays None: nothing was measured)."""
+    return None if v is None else round(v, nd)
+
+
 def percentile(values, q: float) -> Optional[float]:
     """The q-th percentile of ``values`` (None when empty)."""
     if not len(values):
@@ -171,20 +176,17 @@ class RunMetrics:
         if not self.objects:
             return {}
 
-        def r(v, nd=3):
-            return None if v is None else round(v, nd)
-
         kinds = sorted(self.object_error_mm)
         return {
-            "object_perception_ms_p50": r(percentile(self.object_perception_ms, 50)),
-            "targets_seen_ratio": r(self.object_seen_pairs / self.object_visible_pairs
+            "object_perception_ms_p50": rounded(percentile(self.object_perception_ms, 50)),
+            "targets_seen_ratio": rounded(self.object_seen_pairs / self.object_visible_pairs
                                     if self.object_visible_pairs else 0.0),
-            "error_3d_mm_p50_by_kind": {k: r(percentile(self.object_error_mm[k], 50)) for k in kinds},
-            "error_3d_mm_p95_by_kind": {k: r(percentile(self.object_error_mm[k], 95)) for k in kinds},
+            "error_3d_mm_p50_by_kind": {k: rounded(percentile(self.object_error_mm[k], 50)) for k in kinds},
+            "error_3d_mm_p95_by_kind": {k: rounded(percentile(self.object_error_mm[k], 95)) for k in kinds},
             "id_switches": self.object_id_switches,
-            "velocity_error_mm_s_p50": r(percentile(self.object_velocity_error_mm_s, 50)),
-            "error_3d_mm_p50_moving": r(percentile(self.object_error_fast_mm, 50)),
-            "error_3d_mm_p95_moving": r(percentile(self.object_error_fast_mm, 95)),
+            "velocity_error_mm_s_p50": rounded(percentile(self.object_velocity_error_mm_s, 50)),
+            "error_3d_mm_p50_moving": rounded(percentile(self.object_error_fast_mm, 50)),
+            "error_3d_mm_p95_moving": rounded(percentile(self.object_error_fast_mm, 95)),
             "moving_samples": self.object_error_fast_mm.seen,
             **self.follow_summary(),
         }
@@ -194,46 +196,40 @@ class RunMetrics:
         if not self.following:
             return {}
 
-        def r(v, nd=3):
-            return None if v is None else round(v, nd)
-
         return {
-            "object_follow_error_mm_p50": r(percentile(self.object_follow_error_mm, 50)),
-            "object_follow_error_mm_p95": r(percentile(self.object_follow_error_mm, 95)),
+            "object_follow_error_mm_p50": rounded(percentile(self.object_follow_error_mm, 50)),
+            "object_follow_error_mm_p95": rounded(percentile(self.object_follow_error_mm, 95)),
             "object_follow_samples": self.object_follow_error_mm.seen,
             "object_stops": self.object_stops,
             "object_approaches": self.object_approaches,
-            "arrival_speed_mm_s_p50": r(percentile(self.arrival_speed_mm_s, 50)),
-            "time_to_reach_stopped_s_p50": r(percentile(self.time_to_reach_stopped_s, 50)),
+            "arrival_speed_mm_s_p50": rounded(percentile(self.arrival_speed_mm_s, 50)),
+            "time_to_reach_stopped_s_p50": rounded(percentile(self.time_to_reach_stopped_s, 50)),
         }
 
     def summary(self) -> dict:
-        def r(v, nd=3):
-            return None if v is None else round(v, nd)
-
         return {
             "scenario": self.scenario,
             "frames": self.frames,
-            "fps": r(self.frames / self.wall_s if self.wall_s > 0 else 0.0, 2),
-            "perception_ms_p50": r(percentile(self.perception_ms, 50)),
-            "perception_ms_p95": r(percentile(self.perception_ms, 95)),
-            "latency_ms_p50": r(percentile(self.latency_ms, 50)),
-            "latency_ms_p95": r(percentile(self.latency_ms, 95)),
-            "error_3d_mm_p50": r(percentile(self.error_3d_mm, 50)),
-            "error_3d_mm_p95": r(percentile(self.error_3d_mm, 95)),
-            "markers_seen_ratio": r(self.seen_pairs / self.visible_pairs if self.visible_pairs else 0.0),
+            "fps": rounded(self.frames / self.wall_s if self.wall_s > 0 else 0.0, 2),
+            "perception_ms_p50": rounded(percentile(self.perception_ms, 50)),
+            "perception_ms_p95": rounded(percentile(self.perception_ms, 95)),
+            "latency_ms_p50": rounded(percentile(self.latency_ms, 50)),
+            "latency_ms_p95": rounded(percentile(self.latency_ms, 95)),
+            "error_3d_mm_p50": rounded(percentile(self.error_3d_mm, 50)),
+            "error_3d_mm_p95": rounded(percentile(self.error_3d_mm, 95)),
+            "markers_seen_ratio": rounded(self.seen_pairs / self.visible_pairs if self.visible_pairs else 0.0),
             "commands_sent": self.commands_sent,
             "limit_violations": self.limit_violations,
-            "reach_error_mm_p50": r(percentile(self.reach_error_mm, 50)),
-            "reach_error_true_mm_p50": r(percentile(self.reach_error_true_mm, 50)),
+            "reach_error_mm_p50": rounded(percentile(self.reach_error_mm, 50)),
+            "reach_error_true_mm_p50": rounded(percentile(self.reach_error_true_mm, 50)),
             "unreachable_commands": self.unreachable_commands,
             "full_frame_searches": self.full_searches,
             "frames_reused": self.frames_reused,
             "control_steps_event": self.event_steps,
             "control_steps_tick": self.tick_steps,
-            "duration_s": r(self.sim_s, 2),
+            "duration_s": rounded(self.sim_s, 2),
             "bridge_disconnects": self.bridge_disconnects,
-            "disconnected_s": r(self.disconnected_s),
+            "disconnected_s": rounded(self.disconnected_s),
             **self.object_summary(),
             **self.teleop_summary(),
         }
@@ -255,23 +251,20 @@ class RunMetrics:
         if not self.teleop:
             return {}
 
-        def r(v, nd=3):
-            return None if v is None else round(v, nd)
-
         return {
-            "teleop_tracking_mm_p50": r(percentile(self.teleop_tracking_mm, 50)),
-            "teleop_tracking_mm_p95": r(percentile(self.teleop_tracking_mm, 95)),
+            "teleop_tracking_mm_p50": rounded(percentile(self.teleop_tracking_mm, 50)),
+            "teleop_tracking_mm_p95": rounded(percentile(self.teleop_tracking_mm, 95)),
             "teleop_tracking_samples": self.teleop_tracking_mm.seen,
             "teleop_speed_limited_samples": self.teleop_speed_limited_samples,
-            "teleop_target_error_mm_p50": r(percentile(self.teleop_target_error_mm, 50)),
-            "teleop_target_error_mm_p95": r(percentile(self.teleop_target_error_mm, 95)),
-            "teleop_corner_error_mm": [r(v) for v in self.teleop_corner_error_mm],
+            "teleop_target_error_mm_p50": rounded(percentile(self.teleop_target_error_mm, 50)),
+            "teleop_target_error_mm_p95": rounded(percentile(self.teleop_target_error_mm, 95)),
+            "teleop_corner_error_mm": [rounded(v) for v in self.teleop_corner_error_mm],
             "teleop_hold_commands": self.teleop_hold_commands,
-            "teleop_hold_command_mm_max": r(self.teleop_hold_command_mm_max),
-            "teleop_hold_tool_mm_max": r(self.teleop_hold_tool_mm_max),
+            "teleop_hold_command_mm_max": rounded(self.teleop_hold_command_mm_max),
+            "teleop_hold_tool_mm_max": rounded(self.teleop_hold_tool_mm_max),
             "teleop_valid_goals_after_end": self.teleop_valid_goals_after_end,
             "gesture_events": list(self.gesture_events),
-            "teleop_state_s": {k: r(v, 2) for k, v in self.teleop_state_s.items()},
+            "teleop_state_s": {k: rounded(v, 2) for k, v in self.teleop_state_s.items()},
         }
 
 
