@@ -49,7 +49,7 @@ from core.vision.disparity import (
     load_preset,
     save_preset,
 )
-from widgets._style import TOUCH_PX, touch_button, touch_scroll_area, touch_slider
+from widgets._style import TOUCH_PX, touch_button, touch_scroll_area, touch_slider, touch_tabs
 from widgets.arm_twin import ArmTwin, profile_joint_levels, same_points
 from widgets.arm_twin_3d import available_3d, make_twin_3d
 from widgets.bridge_picker import BridgePicker
@@ -57,7 +57,7 @@ from widgets.camera_controls import CameraSettingsPanel
 from widgets.camera_view import CameraView, MarkerOverlay, ObjectOverlay
 from widgets.detector_panel import DetectorPanel
 from widgets.device_controls import DeviceControlsPanel
-from widgets.estop import EStopButton, RearmButton
+from widgets.estop import EStopButton, RearmButton, StopGuard
 from widgets.help_dialog import HelpDialog
 from widgets.jog_panel import JogPanel, is_text_field, jog_key_action
 from widgets.joint_readout import JointReadout
@@ -81,6 +81,8 @@ COMPACT_VIEW_PX = 420  # narrower camera views label markers by id and objects b
 PICK_TOLERANCE_HUE = 10  # "Pick colour": hue ± this (OpenCV's 0…179) around the tapped pixels
 NO_DETECTOR_HINT = "no object detector is on — switch one on in the Objects tab (e.g. hsv)"
 JOG_TICK_MS = 20  # a held jog key or button moves the target at 50 Hz (the control rate)
+STOP_STRIP_HEIGHT_PX = TOUCH_PX + 8  # the strip STOP sits in: its height never changes
+STOP_WIDTH_PX = 150  # STOP's fixed width ("STOPPED" fits; wider than a fingertip by three)
 
 
 class JogKeyFilter(QtCore.QObject):
@@ -215,34 +217,48 @@ class MainWindow(QtWidgets.QMainWindow):
         outer = QtWidgets.QVBoxLayout(central)
         outer.setContentsMargins(4, 4, 4, 4)
         outer.setSpacing(4)
-        top = QtWidgets.QHBoxLayout()
+        # The STOP strip: a fixed height, STOP at its right end with a fixed size, so STOP keeps
+        # one place and size in every state (stopped, recording, replay, any banner); messages
+        # go in the row below it, where they may grow. RE-ARM appears only while stopped, at the
+        # other end of the strip: a finger that presses STOP again ("make sure") lands on STOP.
+        self.stop_strip = QtWidgets.QWidget()
+        self.stop_strip.setObjectName("stop_strip")
+        self.stop_strip.setFixedHeight(STOP_STRIP_HEIGHT_PX)
+        top = QtWidgets.QHBoxLayout(self.stop_strip)
+        top.setContentsMargins(0, 0, 0, 0)
         top.setSpacing(4)
-        # what the user needs right after an action, never below the fold: the banner (camera,
-        # e-stop, notes) and the target state ("on target", "out of reach by 81 mm")
-        messages = QtWidgets.QVBoxLayout()
-        messages.setSpacing(2)
-        self.banner = Banner()
-        messages.addWidget(self.banner)
-        self.target_panel = TargetPanel()
-        self.target_status = self.target_panel.detach_reach_label()
-        messages.addWidget(self.target_status)
-        top.addLayout(messages, 1)
+        self.menu_button = self._build_menu_button()
+        top.addWidget(self.menu_button)
         self.record_button = touch_button("● REC", checkable=True)  # record the session (rosbag2/MCAP)
         self.record_button.setToolTip("Record cameras, markers, goals and joints as a rosbag2 folder (MCAP) "
                                       "in the recordings folder; tap again to stop")
         self.record_button.setMinimumHeight(TOUCH_PX + 8)
         self.record_button.toggled.connect(self.on_record_toggled)
         top.addWidget(self.record_button)
-        self.estop_button = EStopButton()
-        self.estop_button.sigStopRequested.connect(self.on_stop_requested)
-        top.addWidget(self.estop_button)
         self.rearm_button = RearmButton()  # only while stopped; acts after a 1 s hold
         self.rearm_button.sigHeld.connect(self.on_rearm_requested)
         self.rearm_button.hide()
         top.addWidget(self.rearm_button)
-        self.menu_button = self._build_menu_button()
-        top.addWidget(self.menu_button)
-        outer.addLayout(top)
+        # the target state ("on target", "out of reach by 81 mm"): one or two lines, never taller
+        self.target_panel = TargetPanel()
+        self.target_status = self.target_panel.detach_reach_label()
+        self.target_status.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
+                                         QtWidgets.QSizePolicy.Policy.Ignored)
+        top.addWidget(self.target_status, 1)
+        self.estop_button = EStopButton()
+        self.estop_button.setFixedSize(self.estop_button.sizeHint().expandedTo(
+            QtCore.QSize(STOP_WIDTH_PX, STOP_STRIP_HEIGHT_PX)))
+        self.stop_strip.setFixedHeight(self.estop_button.height())  # STOP's style may ask for more
+        self.estop_button.sigStopRequested.connect(self.on_stop_requested)
+        top.addWidget(self.estop_button)
+        outer.addWidget(self.stop_strip)
+        # what the user needs right after an action, never below the fold: camera, e-stop, notes
+        self.banner = Banner()
+        outer.addWidget(self.banner)
+        # a press on STOP's area stops over every popup, list, tooltip and dialog; Esc stops in
+        # every window; nothing covers STOP; the keys come back after a dialog with no window manager
+        self.stop_guard = StopGuard(self.estop_button, self)
+        self.stop_guard.sigStopRequested.connect(self.on_stop_requested)
         self._add_shortcuts()
         self._restore_banner()
 
@@ -284,7 +300,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.tabs = QtWidgets.QTabWidget()
         self.tabs.setDocumentMode(True)
         self.tabs.tabBar().setExpanding(True)
-        self.tabs.setStyleSheet(f"QTabBar::tab {{ min-height: {TOUCH_PX}px; min-width: 44px; padding: 0 4px; }}")
+        touch_tabs(self.tabs)
         self.camera_page = self._build_camera_page()
         self.stereo_panel = StereoPanel()
         self.sgbm_panel = self.stereo_panel.sgbm  # the block-matching trackbars
@@ -336,8 +352,6 @@ class MainWindow(QtWidgets.QMainWindow):
             # vertical-only and never narrower than its page, so the splitter leaves the panel
             # room for it (no sideways scrolling, no clipped buttons at 800x480)
             area = touch_scroll_area(widget)
-            # flick-scroll with a finger on touch screens
-            QtWidgets.QScroller.grabGesture(area.viewport(), QtWidgets.QScroller.ScrollerGestureType.TouchGesture)
             self.tabs.addTab(area, title)
         self.tabs.currentChanged.connect(self._on_tab_changed)  # the Markers table fills when shown
         self.splitter.addWidget(self.tabs)
@@ -431,9 +445,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _add_shortcuts(self) -> None:
         """Esc stops from anywhere in the application; F11, F1 and Ctrl+Q act even when the
         menu is closed (its actions' shortcuts alone would need the menu in a widget tree)."""
-        stop = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Escape), self)
-        stop.setContext(QtCore.Qt.ShortcutContext.ApplicationShortcut)
-        stop.activated.connect(self.on_stop_requested)
+        # Esc is taken by the StopGuard before any widget, popup or dialog sees it
         for action in (self.fullscreen_action, self.help_action, self.quit_action):
             action.setShortcutContext(QtCore.Qt.ShortcutContext.WindowShortcut)
             self.addAction(action)
@@ -543,6 +555,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 pass
             app.removeEventFilter(self._jog_key_filter)
         self._jog_stop()
+        self.stop_guard.remove()
         self._running = False
         self._redraw_timer.stop()
         self._status_timer.stop()
@@ -566,6 +579,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def showEvent(self, event: QtGui.QShowEvent) -> None:  # noqa: N802 (Qt override)
         super().showEvent(event)
         self._fit_timer.start()
+        self.stop_guard.reclaim_focus_soon()  # Esc, F1, Ctrl+Q before the first tap (no window manager)
 
     def moveEvent(self, event: QtGui.QMoveEvent) -> None:  # noqa: N802 (Qt override)
         super().moveEvent(event)  # a window manager reparenting the window moves it: its frame is known now
@@ -1177,7 +1191,7 @@ class MainWindow(QtWidgets.QMainWindow):
             retry = "" if "retrying" in self._camera_error else " — retrying"
             self.banner.show_message(f"camera lost — {self._camera_error}{retry}", "error")
         elif not s.controller.armed:
-            self.banner.show_message("E-STOP — the arm is stopped. Hold RE-ARM for 1 s to resume.", "error")
+            self.banner.show_message("E-STOP — the arm is stopped. To resume, hold RE-ARM (top left) for 1 s.", "error")
         elif s.controller.paused:
             self.banner.show_message(f"arm paused while {', '.join(sorted(s.controller.paused_by))} — "
                                      "it holds still until that closes", "warn")

@@ -63,6 +63,7 @@ from widgets._style import (
 )
 from widgets._plots import static_bar_plot
 from widgets.estop import StopDialog
+from widgets.file_dialog import open_file_dialog
 
 PAGES = ("board", "capture", "results")
 METERS = (("x", "X"), ("y", "Y"), ("size", "Size"), ("skew", "Skew"))
@@ -500,14 +501,16 @@ class CalibrationWizard(StopDialog):
         if board is None:
             return
         start = str(Path.home() / f"{default_file_stem(board)}.pdf")
-        path, chosen = QtWidgets.QFileDialog.getSaveFileName(self, "Save printable board", start,
-                                                             ";;".join(PRINT_FILTERS), PRINT_FILTERS[0])
-        if not path:
-            return  # cancelled
-        target = Path(path)
-        if target.suffix.lower() not in (".pdf", ".png"):
-            target = target.with_name(target.name + (".png" if chosen == PRINT_FILTERS[1] else ".pdf"))
-        self.save_printable(board, target)
+
+        def chosen(path: str, name_filter: str) -> None:
+            target = Path(path)
+            if target.suffix.lower() not in (".pdf", ".png"):
+                target = target.with_name(target.name + (".png" if name_filter == PRINT_FILTERS[1] else ".pdf"))
+            self.save_printable(board, target)
+
+        # Qt's own dialog with STOP, not modal: Esc stops the arm and the window's STOP stays live
+        self.file_dialog = open_file_dialog(self, "Save printable board", chosen, start, ";;".join(PRINT_FILTERS),
+                                            save=True, selected_filter=PRINT_FILTERS[0])
 
     def save_printable(self, board: BoardSpec, path: Union[str, Path]) -> Optional[Path]:
         """Write ``board`` to ``path`` (``save_printable_board``) and say on the page what to do next."""

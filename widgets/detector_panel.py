@@ -35,6 +35,7 @@ from widgets._style import (
     touch_combo,
     touch_slider,
 )
+from widgets.file_dialog import open_file_dialog
 
 THROTTLE_MS = 80  # a dragged slider re-tunes the detector at most this often
 HORIZONTAL = QtCore.Qt.Orientation.Horizontal
@@ -474,10 +475,8 @@ class DetectorPanel(QtWidgets.QWidget):
     def choose_onnx_file(self) -> None:
         """"ONNX file…": a file dialog, then ``add_onnx`` with the chosen file."""
         start = os.path.dirname(self._onnx_path) if self._onnx_path else os.path.expanduser("~")
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Choose a YOLO model (ONNX)", start,
-                                                        "ONNX models (*.onnx);;All files (*)")
-        if path:
-            self.add_onnx(path)
+        self.file_dialog = open_file_dialog(self, "Choose a YOLO model (ONNX)", lambda path, _f: self.add_onnx(path),
+                                            start, "ONNX models (*.onnx);;All files (*)")
 
     def add_onnx(self, path: str) -> None:
         """Run the YOLO model in ``path`` (replacing a previous model file); emits at once."""

@@ -185,3 +185,217 @@ class StopDialog(QtWidgets.QDialog):
             self.request_stop()
             return
         super().keyPressEvent(event)
+
+
+KEEP_OFF_MARGIN_PX = 8  # popups and dialogs keep this far from STOP's rectangle
+_MAX_MOVES_PER_SHOW = 4  # a window manager that insists on its place is not fought for ever
+_PRESS_EVENTS = (QtCore.QEvent.Type.MouseButtonPress, QtCore.QEvent.Type.MouseButtonDblClick,
+                 QtCore.QEvent.Type.TouchBegin, QtCore.QEvent.Type.TabletPress)
+_FLOATING_TYPES = (QtCore.Qt.WindowType.Popup, QtCore.Qt.WindowType.ToolTip, QtCore.Qt.WindowType.Dialog,
+                   QtCore.Qt.WindowType.Tool, QtCore.Qt.WindowType.Sheet, QtCore.Qt.WindowType.Drawer,
+                   QtCore.Qt.WindowType.SplashScreen)
+
+
+def _press_position(event: QtCore.QEvent) -> QtCore.QPointF | None:
+    """Where on the screen a press landed (global coordinates), or None."""
+    if isinstance(event, QtGui.QSinglePointEvent):  # mouse, tablet
+        return event.globalPosition()
+    if isinstance(event, QtGui.QTouchEvent) and event.points():
+        return event.points()[0].globalPosition()
+    return None
+
+
+class StopGuard(QtCore.QObject):
+    """Keeps one STOP within reach of a finger and a key, whatever else the application shows.
+
+    Installed on the QApplication for one window's STOP widget:
+
+    - **a press on STOP's screen rectangle stops** — mouse, touch or pen, also while a menu, a
+      drop-down list, a tooltip or a dialog is open and has the pointer grabbed (open popups
+      close); the press is taken, so nothing under it acts as well;
+    - **Esc stops in every window of the application** (a popup also closes; a dialog stays open:
+      Esc never cancels a dialog, its Cancel / Close button does);
+    - **nothing covers STOP**: menus, lists, tooltips and dialogs that open (or grow, or are moved)
+      over STOP's rectangle are moved off it — below it, or beside it — and shrunk to fit if they
+      have to be;
+    - **the keys keep working without a window manager**: when a dialog or popup closes, and when
+      the window first shows, the window takes the keyboard focus back (on X11 with no window
+      manager the focus otherwise falls to the root window and Esc, F1 and Ctrl+Q do nothing).
+
+    STOP from here is the same request as the button's: ``sigStopRequested`` fires on every press
+    and Esc (stopping twice is stopping). Modal dialogs block Qt's input to every other window,
+    so the application opens none while a guard is installed (file dialogs: :func:`open_file_dialog`).
+
+    Signals:
+    - sigStopRequested(): a press on STOP's area or Esc, from the GUI thread.
+    """
+
+    sigStopRequested = QtCore.Signal()
+    _live: list["StopGuard"] = []  # every installed guard (a dialog's own STOP stops them all)
+
+    def __init__(self, stop_widget: QtWidgets.QWidget, window: QtWidgets.QWidget | None = None):
+        super().__init__(stop_widget)
+        self.stop_widget = stop_widget
+        self.window = window or stop_widget.window()
+        self._moves: dict[int, int] = {}  # id(top-level) → moves since it was shown
+        self._last_key = None  # (timestamp, key) of the last Esc handled: one stop per key press
+        self._focus_timer = QtCore.QTimer(self)  # reclaim_focus once the closing window is gone
+        self._focus_timer.setSingleShot(True)
+        self._focus_timer.setInterval(0)
+        self._focus_timer.timeout.connect(self.reclaim_focus)
+        app = QtWidgets.QApplication.instance()
+        app.installEventFilter(self)
+        StopGuard._live.append(self)
+        stop_widget.destroyed.connect(self._forget)
+
+    @classmethod
+    def stop_all(cls) -> None:
+        """STOP from somewhere without an owner (a file dialog's STOP): every guarded window stops."""
+        for guard in list(cls._live):
+            guard.sigStopRequested.emit()
+
+    def _forget(self, *_args) -> None:
+        if self in StopGuard._live:
+            StopGuard._live.remove(self)
+        app = QtWidgets.QApplication.instance()
+        if app is not None:
+            app.removeEventFilter(self)
+
+    def remove(self) -> None:
+        """Stop guarding (the window is closing)."""
+        self._forget()
+
+    # -- geometry ---------------------------------------------------------------------------------
+    def _alive(self) -> bool:
+        import shiboken6
+
+        return shiboken6.isValid(self.stop_widget) and shiboken6.isValid(self.window)
+
+    def stop_rect(self) -> QtCore.QRect:
+        """STOP's rectangle on the screen (global pixels); empty while it is not shown."""
+        w = self.stop_widget
+        if not self._alive() or not w.isVisible() or self.window.isMinimized():
+            return QtCore.QRect()
+        return QtCore.QRect(w.mapToGlobal(QtCore.QPoint(0, 0)), w.size())
+
+    def keep_off_stop(self, top: QtWidgets.QWidget) -> bool:
+        """Move (and if need be shrink) a popup, tooltip or dialog so that it leaves STOP's
+        rectangle, with a margin, uncovered; True when it was moved."""
+        stop = self.stop_rect()
+        if stop.isEmpty():
+            return False
+        keep = stop.adjusted(-KEEP_OFF_MARGIN_PX, -KEEP_OFF_MARGIN_PX, KEEP_OFF_MARGIN_PX, KEEP_OFF_MARGIN_PX)
+        frame = top.frameGeometry()
+        if not frame.intersects(keep):
+            return False
+        screen = top.screen() or self.window.screen()
+        area = screen.availableGeometry() if screen is not None else frame.united(keep)
+        extra_w = frame.width() - top.width()  # the window manager's frame around the client area
+        extra_h = frame.height() - top.height()
+        below = QtCore.QRect(frame)
+        below.moveTop(keep.bottom() + 1)
+        beside = QtCore.QRect(frame)
+        if keep.center().x() >= area.center().x():
+            beside.moveRight(keep.left() - 1)
+        else:
+            beside.moveLeft(keep.right() + 1)
+        popup = bool(top.windowType() in (QtCore.Qt.WindowType.Popup, QtCore.Qt.WindowType.ToolTip))
+        # a list or menu keeps its column (it belongs to what opened it): below first; a dialog
+        # keeps its height: beside first
+        order = (below, beside) if popup else (beside, below)
+        for candidate in order:
+            if area.contains(candidate):
+                top.move(candidate.topLeft())
+                return True
+        # does not fit whole: shrink it below STOP (lists scroll), or beside STOP on a tall screen
+        right_side = keep.center().x() >= area.center().x()
+        room_below = area.bottom() - keep.bottom()
+        room_beside = (keep.left() - area.left()) if right_side else (area.right() - keep.right())
+        if room_below * area.width() >= room_beside * area.height():
+            width = min(frame.width(), area.width())
+            left = min(max(frame.left(), area.left()), area.right() + 1 - width)
+            wanted = QtCore.QRect(left, keep.bottom() + 1, width, min(frame.height(), room_below))
+        else:
+            width = min(frame.width(), room_beside)
+            height = min(frame.height(), area.height())
+            y = min(max(frame.top(), area.top()), area.bottom() + 1 - height)
+            wanted = QtCore.QRect(keep.left() - width if right_side else keep.right() + 1, y, width, height)
+        border = top.geometry().topLeft() - frame.topLeft()  # the window manager's frame, if any
+        top.setGeometry(wanted.left() + border.x(), wanted.top() + border.y(),
+                        wanted.width() - extra_w, wanted.height() - extra_h)
+        return True
+
+    def reclaim_focus_soon(self) -> None:
+        """:meth:`reclaim_focus` once the events being handled now are done (a closing dialog gone)."""
+        self._focus_timer.start()
+
+    def reclaim_focus(self) -> None:
+        """Give the window the keyboard back when nothing of the application holds it (no
+        window manager after a dialog closed, or at start-up)."""
+        if not self._alive() or not self.window.isVisible():
+            return
+        app = QtWidgets.QApplication.instance()
+        active = app.activeWindow()
+        if app.activePopupWidget() is not None or app.activeModalWidget() is not None:
+            return
+        if active is None or not active.isVisible():
+            self.window.activateWindow()
+
+    # -- the filter -------------------------------------------------------------------------------
+    def eventFilter(self, obj: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt override)
+        kind = event.type()
+        if kind in _PRESS_EVENTS:
+            return self._on_press(event)
+        if kind == QtCore.QEvent.Type.KeyPress:
+            return self._on_key(event)
+        if kind in (QtCore.QEvent.Type.Show, QtCore.QEvent.Type.Resize, QtCore.QEvent.Type.Move):
+            self._on_geometry(obj, kind)
+        elif kind in (QtCore.QEvent.Type.Hide, QtCore.QEvent.Type.Close):
+            if isinstance(obj, QtWidgets.QWidget) and obj.isWindow() and self._alive() and obj is not self.window:
+                self.reclaim_focus_soon()
+        return False
+
+    def _on_press(self, event: QtCore.QEvent) -> bool:
+        where = _press_position(event)
+        if where is None:
+            return False
+        stop = self.stop_rect()
+        if stop.isEmpty() or not stop.contains(where.toPoint()):
+            return False
+        app = QtWidgets.QApplication.instance()
+        popup = app.activePopupWidget()
+        while popup is not None:  # a menu, a list: close it (a submenu's parent too)
+            popup.close()
+            nxt = app.activePopupWidget()
+            popup = nxt if nxt is not popup else None
+        self.sigStopRequested.emit()
+        event.accept()
+        return True  # taken: the press does nothing else (no list item picked, no button under it)
+
+    def _on_key(self, event: QtGui.QKeyEvent) -> bool:
+        if event.key() != QtCore.Qt.Key.Key_Escape or not self._alive():
+            return False
+        stamp = (event.timestamp(), event.key(), event.isAutoRepeat())
+        if stamp != self._last_key or event.timestamp() == 0:
+            self._last_key = stamp
+            self.sigStopRequested.emit()
+        # a popup closes as well (Esc's usual meaning); a dialog stays open and the main window
+        # has nothing else to do with Esc
+        return QtWidgets.QApplication.instance().activePopupWidget() is None
+
+    def _on_geometry(self, obj: QtCore.QObject, kind: QtCore.QEvent.Type) -> None:
+        if not isinstance(obj, QtWidgets.QWidget) or not obj.isWindow() or obj is self.window:
+            return
+        if obj.windowType() not in _FLOATING_TYPES or not obj.isVisible() and kind != QtCore.QEvent.Type.Show:
+            return
+        if not self._alive():
+            return
+        key = id(obj)
+        if kind == QtCore.QEvent.Type.Show:
+            if len(self._moves) > 64:  # windows long closed
+                self._moves.clear()
+            self._moves[key] = 0
+        if self._moves.get(key, 0) >= _MAX_MOVES_PER_SHOW:
+            return
+        if self.keep_off_stop(obj):
+            self._moves[key] = self._moves.get(key, 0) + 1

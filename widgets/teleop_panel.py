@@ -21,6 +21,7 @@ from widgets._style import (
     touch_button,
     touch_combo,
 )
+from widgets.file_dialog import open_file_dialog
 
 M_TO_CM = 100.0
 KEYBOARD_SOURCE = "keyboard"  # the jog keys as a teleop source (core.motion.jog.JogTeleopSource)
@@ -227,10 +228,8 @@ class TeleopPanel(QtWidgets.QWidget):
         if spec is None:
             return
         if spec == POSE_SOURCE:  # the entry that asks for a file
-            path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Pose model (ONNX)", "", "ONNX models (*.onnx)")
-            if not path:
-                return
-            self.set_pose_model(path)
+            self.file_dialog = open_file_dialog(self, "Pose model (ONNX)", lambda path, _f: self.set_pose_model(path),
+                                                "", "ONNX models (*.onnx)")
             return
         self.sigSourceChanged.emit(spec)
 

@@ -13,7 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shiboken6
 from PySide6 import QtCore, QtWidgets
+from PySide6.QtTest import QTest
 
 import widgets  # noqa: F401  (row-major images)
 from app.calibration_worker import CalibrationController, LiveUpdate
@@ -402,20 +404,34 @@ def test_after_a_few_seconds_without_a_board_the_capture_page_says_what_to_do(qt
     assert live.left_ok and NO_BOARD_HINT not in wizard.gate_label.text() and wizard.board_missing_s() == 0.0
 
 
-def test_save_printable_board_writes_the_chosen_board_where_the_user_says(qtbot, tmp_path, monkeypatch):
+def _answer_file_dialog(qtbot, wizard, folder, name, name_filter=None):
+    """Type ``name`` in the wizard's open file dialog (Qt's own, with STOP) and press Enter."""
+    dialog = wizard.file_dialog
+    qtbot.waitUntil(dialog.isVisible)
+    if name_filter is not None:
+        dialog.files.selectNameFilter(name_filter)
+    dialog.files.setDirectory(str(folder))
+    edit = dialog.files.findChild(QtWidgets.QLineEdit, "fileNameEdit")
+    edit.setText(name)
+    QTest.keyClick(edit, QtCore.Qt.Key.Key_Return)
+    qtbot.waitUntil(lambda: _closed(dialog))
+
+
+def _closed(dialog) -> bool:
+    """The dialog was closed (it deletes itself once closed)."""
+    return not shiboken6.isValid(dialog) or not dialog.isVisible()
+
+
+def test_save_printable_board_writes_the_chosen_board_where_the_user_says(qtbot, tmp_path):
     wizard = CalibrationWizard()
     qtbot.addWidget(wizard)
     wizard.fields["square_mm"].setValue(30.0)
-    asked = []
-
-    def answer(parent, caption, start, filters, selected=""):
-        asked.append((start, filters))
-        return str(tmp_path / "my board"), PRINT_FILTERS[1]  # no suffix typed, the PNG filter chosen
-
-    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", answer)
     assert wizard.print_button.height() >= 40 and wizard.print_button.isVisibleTo(wizard)
     qtbot.mouseClick(wizard.print_button, LEFT)
-    assert asked and asked[0][0].endswith("chessboard_9x6_30mm.pdf") and "*.png" in asked[0][1]
+    dialog = wizard.file_dialog
+    edit = dialog.files.findChild(QtWidgets.QLineEdit, "fileNameEdit")
+    assert edit.text() == "chessboard_9x6_30mm.pdf" and "*.png" in ";;".join(dialog.files.nameFilters())
+    _answer_file_dialog(qtbot, wizard, tmp_path, "my board", PRINT_FILTERS[1])  # no suffix, the PNG filter
     path = tmp_path / "my board.png"
     assert wizard.last_printed == path and path.is_file()
     assert read_png_dpi(path) == pytest.approx((300.0, 300.0), abs=0.01)
@@ -424,13 +440,16 @@ def test_save_printable_board_writes_the_chosen_board_where_the_user_says(qtbot,
     wizard.fields["square_mm"].setValue(25.0)  # another board: the note about the old one goes
     assert wizard.print_label.isHidden() and not wizard.board_help.isHidden()
     # a folder that is not there: said where the user looks, with what to do
-    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
-                        lambda *a, **k: (str(tmp_path / "gone" / "board.pdf"), PRINT_FILTERS[0]))
     qtbot.mouseClick(wizard.print_button, LEFT)
+    wizard.file_dialog.sigChosen.emit(str(tmp_path / "gone" / "board.pdf"), PRINT_FILTERS[0])
     assert "could not save" in wizard.print_label.text() and "choose another folder" in wizard.print_label.text()
     # cancelled: nothing happens
-    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", lambda *a, **k: ("", ""))
+    wizard.file_dialog.close()
     qtbot.mouseClick(wizard.print_button, LEFT)
+    cancel = next(b for b in wizard.file_dialog.files.findChildren(QtWidgets.QPushButton) if "Cancel" in b.text())
+    dialog = wizard.file_dialog
+    qtbot.mouseClick(cancel, LEFT)
+    qtbot.waitUntil(lambda: _closed(dialog))
     assert wizard.last_printed == path
 
 
