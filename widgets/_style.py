@@ -54,6 +54,32 @@ QPushButton:checked {{
 """
 
 
+# Tabs drawn over their whole TOUCH_PX: Fusion draws an unselected tab 2 px below the top of
+# its rect (a 44 px tab showed 42 px), and a bolder mark than Fusion's for the open one.
+# min-height counts the content only: 1 px top border + 3 px bottom border + 40 = TOUCH_PX.
+TAB_STYLE = f"""
+QTabBar::tab {{
+    min-height: {TOUCH_PX - 4}px; min-width: {TOUCH_PX}px; padding: 0 4px; margin: 0;
+    border: 1px solid #a0a0a0; border-left: none; border-bottom: 3px solid #a0a0a0;
+    background: palette(button); color: palette(button-text);
+}}
+QTabBar::tab:first {{ border-left: 1px solid #a0a0a0; }}
+QTabBar::tab:selected {{ background: palette(base); color: palette(text); border-bottom-color: {ACCENT_COLOUR}; }}
+QCheckBox {{ min-height: {TOUCH_PX}px; spacing: 8px; }}
+QCheckBox::indicator {{ width: 26px; height: 26px; }}
+"""
+
+
+def touch_tabs(tabs: QtWidgets.QTabWidget) -> QtWidgets.QTabWidget:
+    """Finger-sized tabs, drawn over their whole height, the open one underlined.
+
+    The style sheet also gives every check box in the pages a TOUCH_PX row (unless the box has
+    its own style sheet); a tap anywhere on that row toggles it (see :class:`DragScroll`).
+    """
+    tabs.setStyleSheet(TAB_STYLE)
+    return tabs
+
+
 def touch_slider(slider: QtWidgets.QWidget) -> QtWidgets.QWidget:
     """Give a (superqt or plain) horizontal slider a tall, finger-sized handle, and make it
     take the mouse wheel only when focused (see :class:`WheelWhenFocused`)."""
@@ -171,7 +197,8 @@ QScrollBar::handle:vertical { min-height: 44px; }
 
 def touch_scroll_area(content: QtWidgets.QWidget,
                       parent: QtWidgets.QWidget | None = None) -> QtWidgets.QScrollArea:
-    """A vertical-only scroll area with a finger-wide scroll bar around ``content``."""
+    """A vertical-only scroll area with a finger-wide scroll bar around ``content``, whose page
+    a finger or the mouse drags and flicks (see :class:`DragScroll`)."""
     area = QtWidgets.QScrollArea(parent)
     area.setWidget(content)
     area.setWidgetResizable(True)
@@ -181,7 +208,112 @@ def touch_scroll_area(content: QtWidgets.QWidget,
     # Vertical-only: never narrower than the content plus the scroll bar, or it would clip.
     area.setMinimumWidth(content.minimumSizeHint().width()
                          + area.verticalScrollBar().sizeHint().width() + 2)
+    DragScroll(area)
     return area
+
+
+_MOUSE_EVENTS = (QtCore.QEvent.Type.MouseButtonPress, QtCore.QEvent.Type.MouseButtonDblClick,
+                 QtCore.QEvent.Type.MouseMove, QtCore.QEvent.Type.MouseButtonRelease)
+
+
+class DragScroll(QtCore.QObject):
+    """Drag a scroll area's page with a finger or the mouse, and flick it (kinetic, as a phone).
+
+    An event filter on the viewport, which sees only the presses no control took: a slider,
+    spin box, combo box or button under the finger keeps its press (dragging a slider's handle
+    moves the slider, a tap on a button clicks it), while a press on a label, a margin or empty
+    space feeds the area's QScroller, which drags, flicks and decelerates the page. A finger on
+    a touch screen arrives as the mouse events Qt makes from touches nobody accepts, so the same
+    rule holds for it. (QScroller.grabGesture with LeftMouseButtonGesture would also take drags
+    that start on a slider, and delays every press to a button by its MousePressEventDelay.)
+
+    A tap (no drag) on a check box outside its small click rect — the text's line and the
+    indicator, ~26 px of its 44 px row — toggles it: the whole row is its tap target.
+
+    A page with nothing to scroll lets the press go on to an outer scroll area. Where the owner
+    also grabbed QScroller's touch gesture on the viewport, fingers are left to that gesture.
+
+    Signals: none.
+    """
+
+    def __init__(self, area: QtWidgets.QAbstractScrollArea) -> None:
+        super().__init__(area)
+        self._area = area
+        self._viewport = area.viewport()
+        self.scroller = QtWidgets.QScroller.scroller(self._viewport)
+        props = self.scroller.scrollerProperties()
+        metric = QtWidgets.QScrollerProperties.ScrollMetric
+        props.setScrollMetric(metric.HorizontalOvershootPolicy,
+                              QtWidgets.QScrollerProperties.OvershootPolicy.OvershootAlwaysOff)
+        self.scroller.setScrollerProperties(props)
+        self._origin: QtCore.QPointF | None = None  # the viewport's global top-left at the press
+        self._fed = False  # the scroller got the press
+        self._dragged = False
+        self._tap_box: QtWidgets.QAbstractButton | None = None
+        self._viewport.installEventFilter(self)
+
+    def eventFilter(self, obj: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt override)
+        kind = event.type()
+        left = QtCore.Qt.MouseButton.LeftButton
+        if kind in _MOUSE_EVENTS and self._gesture_has_touch(event):
+            return False
+        if kind in (QtCore.QEvent.Type.MouseButtonPress, QtCore.QEvent.Type.MouseButtonDblClick):
+            return event.button() == left and self._press(event)
+        if self._origin is None:
+            return False
+        if kind == QtCore.QEvent.Type.MouseMove:
+            if self._fed:
+                self.scroller.handleInput(QtWidgets.QScroller.Input.InputMove, self._local(event),
+                                          event.timestamp())
+                if self.scroller.state() == QtWidgets.QScroller.State.Dragging:
+                    self._dragged = True
+            return True
+        if kind == QtCore.QEvent.Type.MouseButtonRelease and event.button() == left:
+            if self._fed:
+                self.scroller.handleInput(QtWidgets.QScroller.Input.InputRelease, self._local(event),
+                                          event.timestamp())
+            box, self._tap_box, self._origin = self._tap_box, None, None
+            if box is not None and not self._dragged and box.isEnabled() and box.rect().contains(
+                    box.mapFromGlobal(event.globalPosition().toPoint())):
+                box.click()
+            return True
+        return False
+
+    def _gesture_has_touch(self, event: QtGui.QMouseEvent) -> bool:
+        """A mouse event Qt made from a touch, on a viewport whose owner also grabbed QScroller's
+        touch gesture: the gesture scrolls with that finger (fed twice, the scroller stalls)."""
+        if event.source() == QtCore.Qt.MouseEventSource.MouseEventNotSynthesized:
+            return False
+        # none grabbed reads 0 or CustomGesture; a grabbed one is a registered type above it
+        return QtWidgets.QScroller.grabbedGesture(self._viewport).value > QtCore.Qt.GestureType.CustomGesture.value
+
+    def _press(self, event: QtGui.QMouseEvent) -> bool:
+        scrollable = self._area.verticalScrollBar().maximum() > 0
+        moving = self.scroller.state() != QtWidgets.QScroller.State.Inactive
+        self._tap_box = self._missed_box_at(event.position().toPoint())
+        if not (scrollable or moving or self._tap_box is not None):
+            return False  # nothing to scroll here: an outer scroll area may take the drag
+        # overshooting moves the viewport: one origin for the whole drag keeps it steady
+        self._origin = QtCore.QPointF(self._viewport.mapToGlobal(QtCore.QPoint(0, 0)))
+        self._dragged = False
+        self._fed = scrollable or moving
+        if self._fed:
+            self.scroller.handleInput(QtWidgets.QScroller.Input.InputPress, self._local(event),
+                                      event.timestamp())
+        return True
+
+    def _local(self, event: QtGui.QMouseEvent) -> QtCore.QPointF:
+        return event.globalPosition() - self._origin
+
+    def _missed_box_at(self, pos: QtCore.QPoint) -> QtWidgets.QAbstractButton | None:
+        """The check box (or radio button) under ``pos`` (viewport coordinates), if any: its
+        press reached the viewport, so it fell outside the box's own click rect."""
+        widget = self._viewport.childAt(pos)
+        while widget is not None and widget is not self._viewport:
+            if isinstance(widget, (QtWidgets.QCheckBox, QtWidgets.QRadioButton)):
+                return widget
+            widget = widget.parentWidget()
+        return None
 
 
 class Coalescer(QtCore.QObject):

@@ -59,7 +59,8 @@ class Banner(QtWidgets.QLabel):
 
 class ElidedLabel(QtWidgets.QLabel):
     """A one-line label that shows as much of its text as fits, ending in "…", with the full
-    text in its tooltip.
+    text in its tooltip — shown at once by a tap (or click) on the cut label, since a touch
+    screen has no hover to bring a tooltip up.
 
     ``text()`` is the full text; ``shown_text()`` what is drawn. It asks for its full width
     (``sizeHint``) but can shrink to a few characters (``minimumSizeHint``), so in a status
@@ -97,6 +98,26 @@ class ElidedLabel(QtWidgets.QLabel):
     def is_elided(self) -> bool:
         """True when the label is too narrow for its text."""
         return self.shown_text() != self._full
+
+    def show_full_text(self) -> None:
+        """Show the full text in a tooltip at the label, now (it wraps if wider than the screen
+        and goes at the next press anywhere, or after ~10 s)."""
+        QtWidgets.QToolTip.showText(self.mapToGlobal(QtCore.QPoint(0, 0)), self._full, self)
+
+    def mousePressEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        if event.button() == QtCore.Qt.MouseButton.LeftButton and self.is_elided():
+            event.accept()  # a tap on a cut label is for it: its release shows the text
+            return
+        super().mousePressEvent(event)
+
+    def mouseReleaseEvent(self, event) -> None:  # noqa: N802 (Qt override)
+        # on release: a tooltip shown on the press would be hidden by the release
+        if (event.button() == QtCore.Qt.MouseButton.LeftButton and self.is_elided()
+                and self.rect().contains(event.position().toPoint())):
+            event.accept()
+            self.show_full_text()
+            return
+        super().mouseReleaseEvent(event)
 
     def _extra_px(self) -> int:
         m = self.contentsMargins()
@@ -177,7 +198,7 @@ class StatusBarItems:
 
     The fps and latency labels are always wide enough for "99.9 fps" and "latency 9999 ms";
     on a narrow screen the camera and bridge labels give way, elided with "…" (the full text
-    in their tooltips).
+    in their tooltips, which a tap on the label shows).
 
     Signals: none.
     """
