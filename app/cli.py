@@ -77,6 +77,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --assist, repeatable: a switch and its role (next, confirm, single), added to the "
                         "saved settings — gamepad:BTN_SOUTH=confirm (needs evdev), gpio:17=single (a Raspberry Pi "
                         "pin, needs gpiozero), key:F1=next")
+    p.add_argument("--estop-switch", action="append", default=[], metavar="NAME",
+                   help="repeatable: a physical STOP for the window — gpio:17 (a Raspberry Pi pin to ground, needs "
+                        "gpiozero), gamepad:BTN_SOUTH (a gamepad or USB foot switch button, needs evdev) or key:F12; "
+                        "each press stops, and while it is held down the arm cannot be re-armed")
+    p.add_argument("--rearm-switch", action="append", default=[], metavar="NAME",
+                   help="repeatable: a physical RE-ARM (same forms, never a STOP switch): press it after the stop "
+                        "and hold it 1 s without a break; a switch held since before the stop never re-arms")
     p.add_argument("--headless", action="store_true", help="run the pipeline without a window")
     p.add_argument("--duration", type=float, default=10.0, help="headless: seconds to run (default: 10)")
     p.add_argument("--fast", action="store_true", help="headless: run as fast as possible on a simulated clock")
@@ -113,6 +120,26 @@ def object_option_problem(args) -> str:
         return "--object-detect-every needs a tracker between detector runs: add --object-tracker kcf"
     if args.no_skew_compensation and not args.detector:
         return "--no-skew-compensation only changes the objects of --detector: add --detector hsv"
+    return ""
+
+
+def estop_switch_problem(args) -> str:
+    """"" when --estop-switch / --rearm-switch fit the run (their names are then made canonical in
+    ``args``), else what is wrong and the fix."""
+    if not (args.estop_switch or args.rearm_switch):
+        return ""
+    if args.assist:
+        return ("--estop-switch and --rearm-switch are the main window's: in the assistive view a switch held "
+                "1.5 s stops (--switch NAME=ROLE), and Esc is STOP")
+    if args.headless:
+        return ("--estop-switch and --rearm-switch act through the window: leave out --headless (a headless run "
+                "has no physical STOP)")
+    from app.estop_switches import check_estop_switch_names  # Qt: only when a switch is given
+
+    try:
+        args.estop_switch, args.rearm_switch = check_estop_switch_names(args.estop_switch, args.rearm_switch)
+    except ValueError as exc:
+        return str(exc)
     return ""
 
 
@@ -189,6 +216,10 @@ def main(argv: list[str] | None = None) -> int:
         module = importlib.import_module(SUBCOMMANDS[argv[0]])
         return module.run(argv[0], argv[1:])
     args = build_parser().parse_args(argv)
+    problem = estop_switch_problem(args)
+    if problem:
+        print(f"deskarm: {problem}", file=sys.stderr)
+        return 2
     if args.assist:
         return run_assist(args)
     if args.hand_camera is not None or args.switch:
@@ -218,7 +249,7 @@ def main(argv: list[str] | None = None) -> int:
         follow_object=args.follow_object, object_intercept=not args.no_intercept,
         compensate_skew=not args.no_skew_compensation, object_roi_search=args.object_roi,
         object_tracker=args.object_tracker, object_detect_every=args.object_detect_every,
-        teleop_source=args.teleop,
+        teleop_source=args.teleop, estop_switches=args.estop_switch, rearm_switches=args.rearm_switch,
     )
     try:
         options.validate()

@@ -79,6 +79,10 @@ class SessionOptions:
     # "hsv:COLOUR" (a glove; needs --detector hsv) or "pose:PATH.onnx" (a body pose model); the
     # teleop scenario uses "marker:<first marker id>" when this is None
     teleop_source: Optional[str] = None
+    # the main window's physical STOP and RE-ARM (app.estop_switches): switch names such as "gpio:17",
+    # "gamepad:BTN_SOUTH" or "key:F12"; a STOP press stops, only a different RE-ARM switch re-arms
+    estop_switches: tuple[str, ...] = ()
+    rearm_switches: tuple[str, ...] = ()
 
     def validate(self) -> None:
         """Raise ValueError naming the bad option and the valid values."""
