@@ -6,7 +6,9 @@ banner). ``restore()`` applies the saved values the way a user would: through th
 setters and the window's own slots (``on_mode_changed``, ``on_lissajous``, ...), so the targeter
 and the workers follow. It never connects to a serial port: the bridge picker only shows the
 saved port, protocol and recent ports; the session keeps the bridge the command line chose.
-A saved window geometry is applied only when it fits on a screen's free area.
+A saved window geometry is applied only when it fits on a screen's free area. The saved target
+mode comes back only on a plain start (no scenario, replay, ``--teleop`` or ``--follow-object``:
+those choose their own mode) and only when it can run there; else one plain line says why.
 
 After a change (mode, Lissajous, follow id, camera settings, bridge choice, 3D twin, a camera
 control) ``save()`` runs once a second at most (``SAVE_DELAY_MS``); the window also calls it
@@ -22,11 +24,13 @@ from typing import Any
 from PySide6 import QtCore, QtGui
 
 from core.devices.bridge import split_bridge_url
+from core.messages import TargetMode
 from core.preferences import (
     Preferences,
     WindowGeometry,
     load_preferences,
     preferences_path,
+    remembered_mode_refusal,
     reset_preferences,
     save_preferences,
     with_recent_port,
@@ -34,8 +38,14 @@ from core.preferences import (
 from core.settings import SettingsError, replace_field
 from widgets._style import Coalescer
 from widgets.bridge_picker import same_bridge
+from widgets.target_panel import MODE_LABELS
 
 SAVE_DELAY_MS = 1000  # a burst of changes (a dragged slider) is written once, a second later
+
+
+def mode_label(mode: TargetMode | str) -> str:
+    """The target mode as its button reads ("Follow marker")."""
+    return dict(MODE_LABELS).get(TargetMode(mode), str(getattr(mode, "value", mode)))
 
 
 class WindowPreferences(QtCore.QObject):
@@ -44,9 +54,12 @@ class WindowPreferences(QtCore.QObject):
     Attributes:
         path: the preferences file (``core.preferences.preferences_path()`` by default).
         prefs: the Preferences as last loaded, restored, collected or saved.
-        messages: problems found so far (load, save, reset), oldest first, for the banner.
+        messages: problems found so far (load, save, reset) and a remembered mode that could not
+            come back (why, in plain words), oldest first, for the banner.
         geometry_restored: True when ``restore()`` placed the window (or maximised it): the
             caller then skips its own default size and position.
+        read_only: False by default; True keeps ``save()`` from writing the file (a screenshot
+            run renders the window at a size the user never chose).
 
     Signals (GUI thread):
         sigMessage(str): a problem found after construction (a save or a reset that failed);
@@ -65,8 +78,12 @@ class WindowPreferences(QtCore.QObject):
         self._file_existed = self.path.is_file()
         self.prefs, self.messages = load_preferences(self.path)
         self.geometry_restored = False
+        self.read_only = False  # True: save() writes nothing (``deskarm --screenshot`` leaves the file alone)
         self._applying = False  # restore/reset at work: their own signals are not user changes
         self._asked_bridge: str | None = None  # a bridge URL requested and not yet connected
+        # the mode a scenario, replay, --teleop or --follow-object started in: while it is on, the
+        # saved mode is kept (a cups run must not make the next plain start a cups game)
+        self._command_line_mode: TargetMode | None = None
         self._saver = Coalescer(SAVE_DELAY_MS, self.save, self)
         self._connect_signals()
 
@@ -83,10 +100,12 @@ class WindowPreferences(QtCore.QObject):
 
     @QtCore.Slot()
     def save(self) -> bool:
-        """Collect the settings from the widgets and write the file now. False (and a message)
-        when it cannot be written; the app carries on either way."""
+        """Collect the settings from the widgets and write the file now (nothing is written while
+        ``read_only``). False (and a message) when it cannot be written; the app carries on either way."""
         self._saver.cancel()
         self.prefs = self.collect()
+        if self.read_only:
+            return True
         try:
             save_preferences(self.prefs, self.path)
         except OSError as exc:
@@ -119,11 +138,14 @@ class WindowPreferences(QtCore.QObject):
     def collect(self) -> Preferences:
         """The Preferences the widgets show now (what ``save()`` writes). Values the widgets do
         not have here (a disabled 3D button, no simulated camera, a hidden window) keep their
-        loaded value."""
+        loaded value, and so does the target mode while it is the one the command line chose."""
         w, p = self.window, self.prefs
         tp, picker = w.target_panel, w.bridge_picker
+        mode = TargetMode(tp.mode)
+        if mode is self._command_line_mode:
+            mode = p.target_mode
         changes: dict[str, Any] = {
-            "target_mode": tp.mode,
+            "target_mode": mode,
             "lissajous": tp.lissajous(),
             "bridge_protocol": picker.protocol(),
             "bridge_port": picker.port(),
@@ -145,13 +167,29 @@ class WindowPreferences(QtCore.QObject):
         return p
 
     # ------------------------------------------------------------------ applying
-    def _saved_mode_applies(self) -> bool:
-        """The saved target mode comes back only from a saved file, and never over a scenario
-        that sets its own (``--scenario cups`` starts the cups game): with no file the session's
-        default mode (Follow marker on the simulated desk) stays."""
+    def _saved_mode_applies(self, mode: TargetMode) -> bool:
+        """The saved target mode comes back only from a saved file and only on a plain start
+        (``core.preferences.remembered_mode_refusal``: a scenario, a replay, ``--teleop`` or
+        ``--follow-object`` choose their own mode). With no file the session's default mode
+        (Follow marker on the simulated desk) stays. A mode that cannot run here stays off and
+        ``messages`` gets one line saying why (the window shows it once, as a note)."""
         if not self._file_existed:
             return False
-        return getattr(self.window.session.options, "scenario", "static") != "cups"
+        session = self.window.session
+        options = session.options
+        why = remembered_mode_refusal(mode, scenario=getattr(options, "scenario", "static"),
+                                      camera_kind=getattr(session.camera, "kind", ""),
+                                      teleop_source=getattr(options, "teleop_source", None),
+                                      follow_object=getattr(options, "follow_object", None))
+        if why is None:
+            return True
+        if not why:  # the command line's mode: not the user's preference unless they change it
+            self._command_line_mode = session.targeter.mode
+        else:
+            line = f"Started in {mode_label(session.targeter.mode)}: {why}"
+            if line not in self.messages:
+                self.messages.append(line)
+        return False
 
     def _apply(self, prefs: Preferences, geometry: bool) -> None:
         w = self.window
@@ -164,7 +202,7 @@ class WindowPreferences(QtCore.QObject):
             if prefs.follow_id is not None:
                 tp.set_follow_id(prefs.follow_id)  # emits (-> on_follow_id) only when it changed
                 w.on_follow_id(prefs.follow_id)
-            if self._saved_mode_applies():
+            if self._saved_mode_applies(prefs.target_mode):
                 tp.set_mode(prefs.target_mode.value)
                 w.on_mode_changed(prefs.target_mode.value)
             picker = w.bridge_picker

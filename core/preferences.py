@@ -160,6 +160,36 @@ def with_recent_port(prefs: Preferences, port: str) -> Preferences:
     return replace_field(prefs, recent_ports=(port, *prefs.recent_ports))
 
 
+# why the plain simulated desk cannot run a mode, and the scenario that plays it
+_SIM_DESK_CANNOT = {
+    TargetMode.TELEOP: "Teleop, your last mode, needs a hand in the camera views and this simulated desk has "
+                       "none (deskarm --scenario teleop has one)",
+    TargetMode.CUPS: "the cups game, your last mode, needs a ball and cups on the desk and this simulated desk "
+                     "has none (deskarm --scenario cups has them)",
+}
+
+
+def remembered_mode_refusal(mode: TargetMode | str, *, scenario: str = "static", camera_kind: str = "",
+                            teleop_source: str | None = None, follow_object: str | None = None) -> str | None:
+    """Whether the target mode saved by the last run comes back at this start: None when it does,
+    else why not — "" when the command line chose the mode itself, or one line in plain words
+    when the mode cannot run here.
+
+    The rule: only a plain start gets the remembered mode back. A ``--scenario`` other than
+    ``static`` (the default scene), a replay (``camera_kind`` "replay"), ``--teleop`` or
+    ``--follow-object`` choose their own mode. On the plain simulated desk (``camera_kind``
+    "sim") Teleop and the cups game cannot run — no hand, no ball — so they stay off and the
+    line says which scenario plays them. Real cameras get every mode back: the hand, ball or
+    object may well be on the desk.
+    """
+    mode = TargetMode(mode)
+    if camera_kind == "replay" or scenario != "static" or teleop_source or follow_object:
+        return ""
+    if camera_kind == "sim" and mode in _SIM_DESK_CANNOT:
+        return _SIM_DESK_CANNOT[mode]
+    return None
+
+
 # --------------------------------------------------------------------------------- the file
 def preferences_path() -> Path:
     """``preferences.toml`` in the user's config folder (``DESKARM_HOME/config`` in tests)."""
@@ -425,6 +455,7 @@ __all__ = [
     "preferences_path",
     "preferences_to_toml",
     "recent_ports_list",
+    "remembered_mode_refusal",
     "reset_preferences",
     "save_preferences",
     "with_recent_port",

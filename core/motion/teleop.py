@@ -509,6 +509,11 @@ class HandGestureDetector:
         if self.corner_a is None:
             self.corner_a = corner
             return [GestureEvent(EVENT_CORNER, now, c, "first corner: now hold still at the opposite corner")]
+        if float(np.max(np.abs(corner - self.corner_a))) < self.params.min_box_m / 2:
+            # still again where the first corner is (a pause there, or a marker lying on the desk):
+            # no try at the opposite corner — refusing a "0.0 × 0.0 × 0.0 cm" volume each time told
+            # the user nothing; the first corner stays and the wait for the opposite one goes on
+            return []
         box = Box.from_corners(self.corner_a, corner)
         problem = box_problem(box, self.params.min_box_m)
         if problem:
