@@ -16,7 +16,8 @@ slot methods of the wizard):
 
 CalibrationController's signals (GUI thread):
 - sigCalibrationInstalled(Path, StereoCalibration) — after "Save and use" wrote the app's
-  calibration (``install_calibration``)
+  calibration (``install_calibration``; the simulated desk's goes to its own file, which real
+  webcams never load)
 - sigStopRequested() — STOP (or Esc) in the wizard: the window stops the arm and calls
   ``set_estop(True)``; the wizard covers the window's own STOP on a small screen
 - sigBoardShown(BoardSpec or None) — a capture session started with this board / the wizard
@@ -40,6 +41,7 @@ from core.vision.calibration import (
     StereoCalibration,
     export_ros_camera_info,
     install_calibration,
+    is_simulated_pair,
 )
 from core.vision.stereo_calibration import (
     BoardSpec,
@@ -386,7 +388,8 @@ class CalibrationController(QtCore.QObject):
 
     Signals (GUI thread):
         sigCalibrationInstalled(object path, object calibration): "Save and use" wrote ``path``
-            (the app's calibration) holding ``calibration``; the window switches to it.
+            (the app's calibration, or the simulated desk's own file) holding ``calibration``;
+            the window switches to it.
         sigStopRequested(): the wizard's STOP was tapped (or Esc pressed): stop the arm, then
             tell the wizard with ``set_estop(True)``.
         sigBoardShown(object board): a capture session started for ``board`` (a BoardSpec), or
@@ -399,8 +402,11 @@ class CalibrationController(QtCore.QObject):
 
     def __init__(self, parent: Optional[QtCore.QObject] = None, sessions_root: Optional[Path] = None,
                  board: Optional[BoardSpec] = None, min_interval_s: float = LIVE_MIN_INTERVAL_S,
-                 export_ros: bool = True):
+                 export_ros: bool = True, simulated: Optional[bool] = None):
         super().__init__(parent)
+        # the frames come from the simulated desk: "Save and use" writes its own file, never the one
+        # real webcams load (None: the parent window's session says, by its camera's pair id)
+        self.simulated = simulated
         self.sessions_root = sessions_root
         self.board = board
         self.min_interval_s = min_interval_s
@@ -413,6 +419,15 @@ class CalibrationController(QtCore.QObject):
     @property
     def active(self) -> bool:
         return self.worker is not None and self.worker.isRunning()
+
+    @property
+    def calibrates_simulated_desk(self) -> bool:
+        """True when the wizard calibrates the simulated desk's cameras (``simulated``, else the
+        parent window's session camera: the simulated desk, or a replay of it)."""
+        if self.simulated is not None:
+            return bool(self.simulated)
+        camera = getattr(getattr(self.parent(), "session", None), "camera", None)
+        return camera is not None and is_simulated_pair(getattr(camera, "pair_id", ""))
 
     def open(self, parent: Optional[QtWidgets.QWidget] = None):
         """Show the wizard (a new one, or the one already open) and start its worker."""
@@ -493,7 +508,8 @@ class CalibrationController(QtCore.QObject):
             self.wizard.on_failed("not installed: " + "; ".join(report.problems))
             return
         try:
-            path = install_calibration(report.calibration, extra=report.file_extras())
+            path = install_calibration(report.calibration, extra=report.file_extras(),
+                                       simulated=self.calibrates_simulated_desk)
             ros = []
             if self.export_ros and update.folder:
                 ros = export_ros_camera_info(report.calibration, Path(update.folder) / "ros")

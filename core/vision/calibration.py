@@ -317,21 +317,37 @@ def export_ros_camera_info(calib: StereoCalibration, folder: str | os.PathLike,
 
 INSTALLED_NAME = "calibration.yaml"
 PREVIOUS_NAME = "calibration.previous.yaml"
+SIMULATED_FOLDER = "simulated_desk"  # in the config folder: calibrations made on the simulated desk
+SIMULATED_PAIR_ID = "sim"  # the simulated desk's camera pair id (also a replay of it)
 
 
-def installed_calibration_path() -> Path:
-    """Where the app looks for the stereo calibration at start (``<config>/calibration.yaml``)."""
-    return user_dir("config") / INSTALLED_NAME
+def is_simulated_pair(pair_id: str) -> bool:
+    """True for the simulated desk's cameras (``SimStereoCamera.pair_id``, and a replay of them)."""
+    return str(pair_id) == SIMULATED_PAIR_ID
+
+
+def installed_calibration_path(simulated: bool = False) -> Path:
+    """Where the app looks for the stereo calibration at start (``<config>/calibration.yaml``).
+
+    ``simulated``: where a calibration made on the simulated desk goes instead
+    (``<config>/simulated_desk/calibration.yaml``): trying the wizard there must not replace the
+    real cameras' calibration, and no session loads that file unless given with ``--calibration``.
+    """
+    folder = user_dir("config")
+    return (folder / SIMULATED_FOLDER if simulated else folder) / INSTALLED_NAME
 
 
 def install_calibration(calib: StereoCalibration,
-                        extra: Optional[Mapping[str, Union[int, float, str]]] = None) -> Path:
+                        extra: Optional[Mapping[str, Union[int, float, str]]] = None,
+                        simulated: bool = False) -> Path:
     """Make ``calib`` the app's calibration; the one it replaces is kept as calibration.previous.yaml.
 
+    ``simulated``: a calibration of the simulated desk's cameras, written to its own file
+    (``installed_calibration_path(simulated=True)``), never to the one real cameras load.
     An OSError (read-only config folder, full disk) names the file and the fix and leaves the
     installed calibration as it was.
     """
-    target = installed_calibration_path()
+    target = installed_calibration_path(simulated)
     if target.is_file():  # a copy, not a move: a failed write below must not leave none installed
         try:
             current = target.read_bytes()
