@@ -1,11 +1,15 @@
 """The assistive view: choose a button on the hand camera's image by touch, two switches or one switch.
 
-``AssistWindow`` fills an 800×480 screen: the hand camera's image with the selectable boxes drawn
-big and numbered (``widgets.assist_view.AssistView``), a big state line ("choose a button",
-"aligning with 7", "approaching 7", "pressing 7", "done: 7 pressed", "stopped"), STOP always in
-the top right corner (``widgets.estop``: STOP only stops; RE-ARM needs a 1 s hold), the input
-mode (touch / 2 switches / 1 switch timed), the scan period T and a "Switches…" dialog that maps
-keys and mouse buttons to the roles "next", "confirm" and "single switch".
+``AssistWindow`` fills its screen (full screen on an 800×480 panel, with or without a window
+manager: ``show_filling_screen``): the hand camera's image with the selectable boxes drawn big and
+numbered (``widgets.assist_view.AssistView``; a box's outline and its number badge are one target),
+a big state line ("choose a button", "aligning with 7", "approaching 7", "pressing 7", "done: 7
+pressed", "stopped"), STOP always in the top right corner (``widgets.estop``: STOP only stops;
+RE-ARM needs a 1 s hold), the input mode (touch / 2 switches / 1 switch timed), the scan period T
+and a "Switches…" dialog that maps keys and mouse buttons to the roles "next", "confirm" and
+"single switch". Quitting is for the carer, out of a switch user's reach: Ctrl+Q, or the ☰ button
+in the top left corner (its menu holds "Quit"); the scanning never lands on it, and in the switch
+modes a mouse button that is a switch, pressed over it, is that switch and never opens it.
 
 Input modes (``core.motion.scanning`` holds their state machines):
 
@@ -18,7 +22,9 @@ Input modes (``core.motion.scanning`` holds their state machines):
 
 In both switch modes, holding a switch for ``long_press_s`` (1.5 s) stops the arm and cancels (the
 e-stop, as STOP); while stopped, holding it again for as long re-arms (the RE-ARM button's hold) —
-so a one-switch user reaches every action. Esc is STOP in every mode.
+so a one-switch user reaches every action. Esc is STOP in every mode. A held key counts as held:
+the auto-repeat's release/press pairs are ignored — also the ones X11 delivers unflagged (the
+release is kept ``KEY_REPEAT_GRACE_S`` for a press with its timestamp; see ``keyReleaseEvent``).
 
 The settings (mode, T, long press, mapping, sound cue) are kept in ``assist.toml`` in the user's
 config folder (core.paths; ``DESKARM_HOME`` in tests) — a file of its own so the main window's
@@ -46,7 +52,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from core.devices.bridge import parse_bridge_url
 from core.motion.scanning import MAX_PERIOD_S, MIN_PERIOD_S, OneSwitchScanner, TouchSelector, TwoSwitchScanner
 from widgets._style import BUTTON_STYLE, SPIN_STYLE, TOUCH_PX
-from widgets.assist_view import AssistView
+from widgets.assist_view import MOUSE_NAMES, AssistView, SwitchSafeButton
 from widgets.estop import EStopButton, RearmButton, StopDialog
 
 ASSIST_SETTINGS_FILE = "assist.toml"
@@ -58,6 +64,11 @@ SCAN_TICK_MS = 40  # how often the timed scan and the long-press hold are checke
 PREVIEW_PERIOD_S = 0.1
 BOX_GROWTH_MAX = 1.6  # boxes are drawn (and hit-tested) up to this much larger than the detected circle …
 BOX_GAP_FRACTION = 0.9  # … but no larger than this fraction of the distance to the nearest neighbour
+# a key switch's release waits this long for the press of an auto-repeat pair (the X server sends
+# both at once with one timestamp; measured under Xvfb: the press arrives 1–2 ms after the release)
+KEY_REPEAT_GRACE_S = 0.1
+MENU_BUTTON_PX = 52  # the ☰ button: a fingertip target (≥ TOUCH_PX) beside the state line
+SCREENSHOT_WAIT_S = 30.0  # --screenshot: the longest wait for the boxes after --after
 
 
 # -----------------------------------------------------------------------------------------------
@@ -113,6 +124,28 @@ def is_switch_name(name: str) -> bool:
 def key_switch_name(event: QtGui.QKeyEvent) -> str:
     """The switch name of a key event: 'key:Space', 'key:Return', 'key:A', …"""
     return "key:" + QtGui.QKeySequence(event.key()).toString()
+
+
+def switch_words(names) -> str:
+    """Switch names in plain words: ("key:Space", "mouse:right") → "Space key or right mouse button".
+
+    Enter and Return (one key on most keyboards, two Qt names) read as one "Enter key"."""
+    words: list[str] = []
+    for name in names:
+        kind, _, what = name.partition(":")
+        if kind == "key":
+            text = "Enter key" if what in ("Return", "Enter") else f"{what} key"
+        elif kind == "mouse":
+            text = f"{what} mouse button"
+        elif kind == "gamepad":
+            text = f"gamepad {what}"
+        elif kind == "gpio":
+            text = f"switch on pin {what}"
+        else:
+            text = name
+        if text not in words:
+            words.append(text)
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " or " + words[-1]
 
 
 def with_switches(settings: AssistSettings, specs) -> AssistSettings:
@@ -629,6 +662,8 @@ class AssistWindow(QtWidgets.QMainWindow):
         self._target: Optional[int] = None
         self._scanner = None
         self._down: Optional[dict] = None  # the switch held now: {name, role, t, fired, engaged_at_press}
+        # a key switch's release that may be half of an auto-repeat pair: {name, t, stamp} (keyReleaseEvent)
+        self._pending_release: Optional[dict] = None
         self.switch_sources: dict = {}  # device switch name → core.devices.switches.SwitchSource (running)
         self.switch_messages: list[str] = []  # what the device switches say is wrong (shown in the hint)
         self._cue = None  # the sound cue, made when the first one is wanted
@@ -645,6 +680,14 @@ class AssistWindow(QtWidgets.QMainWindow):
         self._scan_timer = QtCore.QTimer(self)
         self._scan_timer.setInterval(SCAN_TICK_MS)
         self._scan_timer.timeout.connect(self.scan_tick)
+        self._release_timer = QtCore.QTimer(self)  # ends a pending key release's wait (wall time)
+        self._release_timer.setSingleShot(True)
+        self._release_timer.setInterval(int(KEY_REPEAT_GRACE_S * 1000))
+        self._release_timer.timeout.connect(lambda: self._resolve_pending_release(None))
+        self.quit_action = QtGui.QAction("Quit", self)  # Ctrl+Q: a carer's key, not a switch's
+        self.quit_action.setShortcut(QtGui.QKeySequence("Ctrl+Q"))
+        self.quit_action.triggered.connect(self.quit)
+        self.addAction(self.quit_action)
         self._set_state_text("starting the arm…")
 
     # -- layout -----------------------------------------------------------------------------------
@@ -656,6 +699,21 @@ class AssistWindow(QtWidgets.QMainWindow):
         outer.setContentsMargins(6, 4, 6, 6)
         outer.setSpacing(4)
         top = QtWidgets.QHBoxLayout()
+        # ☰ in the top left corner, as far from STOP (top right) as the window allows; its menu is a
+        # panel in the window, not a popup: nothing grabs the mouse or the keys while it is open, so
+        # STOP and Esc stop as ever
+        self.menu_button = SwitchSafeButton("☰", self._is_mouse_switch)
+        self.menu_button.setObjectName("assistMenuButton")
+        self.menu_button.setFixedSize(MENU_BUTTON_PX, MENU_BUTTON_PX)
+        menu_font = QtGui.QFont(self.font())
+        menu_font.setPixelSize(28)
+        self.menu_button.setFont(menu_font)
+        self.menu_button.setToolTip("Menu: Quit (also Ctrl+Q). In the switch modes the mouse buttons are "
+                                    "switches here too: choose Touch first, or press Ctrl+Q.")
+        self.menu_button.clicked.connect(self.toggle_menu)
+        self.menu_button.sigSwitchPressed.connect(self.switch_down)
+        self.menu_button.sigSwitchReleased.connect(self.switch_up)
+        top.addWidget(self.menu_button)
         self.state_label = QtWidgets.QLabel("")
         font = self.state_label.font()
         font.setPointSize(22)
@@ -725,12 +783,63 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.arm_label.setFont(hint_font)
         self.hint_label.setAlignment(QtCore.Qt.AlignmentFlag.AlignTop)
         side.addWidget(self.hint_label, 1)
+        side.setContentsMargins(4, 0, 0, 0)  # the column's width and height go to the hint's lines
         side_widget = QtWidgets.QWidget()
         side_widget.setLayout(side)
         side_widget.setFixedWidth(190)
         middle.addWidget(side_widget)
         outer.addLayout(middle, 1)
         self.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+        self._build_menu(central)
+
+    def _build_menu(self, central: QtWidgets.QWidget) -> None:
+        """The ☰ menu: a panel over the camera view under the ☰ button, hidden until asked for."""
+        self.menu_panel = QtWidgets.QFrame(central)
+        self.menu_panel.setObjectName("assistMenu")
+        self.menu_panel.setStyleSheet("#assistMenu { background: #303030; border: 2px solid #9e9e9e; "
+                                      "border-radius: 8px; }")
+        box = QtWidgets.QVBoxLayout(self.menu_panel)
+        box.setContentsMargins(8, 8, 8, 8)
+        box.setSpacing(8)
+        font = QtGui.QFont(self.font())
+        font.setPointSize(14)
+        self.quit_button = SwitchSafeButton("Quit  (Ctrl+Q)", self._is_mouse_switch)
+        self.close_menu_button = SwitchSafeButton("Close menu", self._is_mouse_switch)
+        for button in (self.quit_button, self.close_menu_button):
+            button.setStyleSheet(BUTTON_STYLE)
+            button.setFont(font)
+            button.setMinimumWidth(200)
+            button.sigSwitchPressed.connect(self.switch_down)
+            button.sigSwitchReleased.connect(self.switch_up)
+            box.addWidget(button)
+        self.quit_button.clicked.connect(self.quit)
+        self.close_menu_button.clicked.connect(self.close_menu)
+        self.menu_panel.hide()
+
+    def _is_mouse_switch(self, name: str) -> bool:
+        """True when mouse button ``name`` is a switch in the current mode (never in touch mode)."""
+        return self._role(name) is not None
+
+    def toggle_menu(self) -> None:
+        """Open the ☰ menu (or close it when open)."""
+        if self.menu_panel.isVisible():
+            self.close_menu()
+            return
+        self.menu_panel.adjustSize()
+        corner = self.menu_button.mapTo(self.centralWidget(), QtCore.QPoint(0, self.menu_button.height() + 4))
+        self.menu_panel.move(corner)
+        self.menu_panel.raise_()
+        self.menu_panel.show()
+
+    def close_menu(self) -> None:
+        self.menu_panel.hide()
+
+    def quit(self) -> None:
+        """Quit (Ctrl+Q, the ☰ menu): the arm holds where it is, the worker ends, the window closes."""
+        self.close_menu()
+        if self.worker.isRunning():
+            self.worker.emergency_stop()  # handled before the worker's quit: the arm is e-stopped, then let go
+        self.close()
 
     # -- life cycle -------------------------------------------------------------------------------
 
@@ -804,6 +913,7 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.mode_buttons[mode].setChecked(True)
         self.period_spin.setEnabled(mode == "scan1")
         self._down = None
+        self._pending_release = None
         self._restart_scan()
         self._update_hint()
         if save:
@@ -836,11 +946,10 @@ class AssistWindow(QtWidgets.QMainWindow):
 
     def _update_hint(self) -> None:
         s = self.settings
-        names = lambda t: " / ".join(n.split(":", 1)[1] for n in t)  # noqa: E731
         hold = f"Hold {s.long_press_s:g} s: stop (again: re-arm)."
         text = {"touch": "Tap a numbered box.",
-                "scan2": f"Next: {names(s.next_switch)}.\nGo: {names(s.confirm_switch)}.\n{hold}",
-                "scan1": f"Press {names(s.single_switch)} when your box is yellow.\n{hold}"}[s.mode]
+                "scan2": f"Next: {switch_words(s.next_switch)}.\nGo: {switch_words(s.confirm_switch)}.\n{hold}",
+                "scan1": f"Press the {switch_words(s.single_switch)} when your box is yellow.\n{hold}"}[s.mode]
         if self.switch_messages or self.settings_warnings:
             text += "\n\n" + "\n".join(self.switch_messages + self.settings_warnings)
         self.hint_label.setText(text)
@@ -987,11 +1096,15 @@ class AssistWindow(QtWidgets.QMainWindow):
             self._cue = SoundCue(QtWidgets.QApplication.beep)
         return self._cue
 
-    def tap(self, image_point: Optional[tuple[float, float]]) -> None:
-        """Touch mode: a tap at an image point (None: beside the image)."""
+    def tap(self, image_point: Optional[tuple[float, float]], box: Optional[int] = None) -> None:
+        """Touch mode: a tap at an image point (None: beside the image); ``box``: the box the view
+        found under the tap (its outline or its number badge — one target), which is then chosen."""
         if not self.choosing:
             if image_point is not None:
                 self.view.acknowledge(image_point)
+            return
+        if box is not None and 0 <= box < len(self.hit_boxes):
+            self._choose(box)
             return
         if image_point is None:
             self.ignored_taps += 1
@@ -1025,12 +1138,13 @@ class AssistWindow(QtWidgets.QMainWindow):
             self._scan_events(self._scanner.press(now))
         return True
 
-    def switch_up(self, name: str) -> bool:
-        """The switch came up: a short press acts (next, confirm, select), a long one already did."""
+    def switch_up(self, name: str, now: Optional[float] = None) -> bool:
+        """The switch came up (``now``: when, on the window's clock; default now): a short press
+        acts (next, confirm, select), a long one already did."""
         down = self._down
         if down is None or down["name"] != name:
             return self._role(name) is not None
-        now = self._clock()
+        now = self._clock() if now is None else now
         self._check_hold(now)
         self._down = None
         if isinstance(self._scanner, OneSwitchScanner) and down["role"] == "single":
@@ -1049,6 +1163,9 @@ class AssistWindow(QtWidgets.QMainWindow):
     def _check_hold(self, now: float) -> None:
         """A switch held for long_press_s: stop (or, when the press began stopped, re-arm)."""
         down = self._down
+        pending = self._pending_release
+        if pending is not None and down is not None and pending["name"] == down["name"]:
+            now = pending["t"]  # released then, unless a press of the same instant shows an auto-repeat
         if down is None or down["fired"] or now - down["t"] < self.settings.long_press_s:
             return
         down["fired"] = True
@@ -1068,6 +1185,7 @@ class AssistWindow(QtWidgets.QMainWindow):
     def scan_tick(self) -> None:
         """The timed scan and the long-press hold, at the window's clock (SCAN_TICK_MS)."""
         now = self._clock()
+        self._resolve_pending_release(now)
         self._check_hold(now)
         self.check_switch_sources()
         if isinstance(self._scanner, OneSwitchScanner) and self.choosing:
@@ -1075,10 +1193,10 @@ class AssistWindow(QtWidgets.QMainWindow):
 
     # -- events -----------------------------------------------------------------------------------
 
-    def _on_view_pressed(self, name: str, point) -> None:
+    def _on_view_pressed(self, name: str, point, box=None) -> None:
         if self.settings.mode == "touch":
             if name == "mouse:left":
-                self.tap(point)
+                self.tap(point, box)
             return
         self.switch_down(name)
 
@@ -1086,46 +1204,105 @@ class AssistWindow(QtWidgets.QMainWindow):
         if self.settings.mode != "touch":
             self.switch_up(name)
 
+    def mousePressEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
+        """A mouse switch pressed beside the view (the state line, the margins) is the switch too."""
+        name = MOUSE_NAMES.get(event.button())
+        if name is not None and self._is_mouse_switch(name):
+            event.accept()
+            self.switch_down(name)
+            return
+        super().mousePressEvent(event)
+
+    def mouseReleaseEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
+        name = MOUSE_NAMES.get(event.button())
+        if name is not None and self._is_mouse_switch(name):
+            event.accept()
+            self.switch_up(name)
+            return
+        super().mouseReleaseEvent(event)
+
     def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
         if event.key() == QtCore.Qt.Key.Key_Escape:
             event.accept()
+            self.close_menu()
             self.emergency_stop()
             return
+        name = key_switch_name(event)
         if event.isAutoRepeat():
-            event.accept() if self._role(key_switch_name(event)) else super().keyPressEvent(event)
+            event.accept() if self._role(name) else super().keyPressEvent(event)
             return
-        if self.switch_down(key_switch_name(event)):
+        pending = self._pending_release
+        if pending is not None:
+            if pending["name"] == name and is_auto_repeat_pair(pending["stamp"], event.timestamp()):
+                # the X server's auto-repeat, delivered unflagged: the key never came up
+                self._pending_release = None
+                self._release_timer.stop()
+                event.accept()
+                return
+            self._resolve_pending_release(None)  # it was a real release: it acts before this press
+        if self.switch_down(name):
             event.accept()
             return
         super().keyPressEvent(event)
 
     def keyReleaseEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt override)
+        """A key switch's release acts at once — unless it may be half of an auto-repeat pair.
+
+        With X11 auto-repeat a held key arrives as release/press pairs carrying one timestamp;
+        Qt flags them ``isAutoRepeat()`` only when the press is already queued when it reads the
+        release (measured under Xvfb with the window running: every pair came unflagged). So a
+        release with a timestamp is kept for ``KEY_REPEAT_GRACE_S``: a press of the same key with
+        the same timestamp cancels it (the hold goes on: no "next", no new press), anything else —
+        the grace passing, another key — lets it act. A release without a timestamp (0: a
+        synthetic event) cannot be told apart and acts at once."""
         if event.isAutoRepeat():
             event.accept()
             return
-        if self.switch_up(key_switch_name(event)):
+        name = key_switch_name(event)
+        if self._pending_release is not None:
+            self._resolve_pending_release(None)
+        down = self._down
+        if event.timestamp() and down is not None and down["name"] == name:
+            self._pending_release = {"name": name, "t": self._clock(), "stamp": event.timestamp()}
+            self._release_timer.start()
+            event.accept()
+            return
+        if self.switch_up(name):
             event.accept()
             return
         super().keyReleaseEvent(event)
 
+    def _resolve_pending_release(self, now: Optional[float]) -> None:
+        """A pending key release acts (``now`` None: at once; else once the grace has passed on
+        the window's clock)."""
+        pending = self._pending_release
+        if pending is None or (now is not None and now - pending["t"] < KEY_REPEAT_GRACE_S):
+            return
+        self._pending_release = None
+        self._release_timer.stop()
+        self.switch_up(pending["name"], pending["t"])  # as long as the key was really held, not the wait
 
-def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False,
-                      hand_camera=None, switches=(), depth: str = "auto", bridge_url: str = "sim://",
-                      passing_hand: bool = False, detector: str = "circles") -> int:
-    """Open the assistive view (wall clock) and run until it is closed: on the simulated desk, or
-    with ``hand_camera`` (a webcam device: ``core.devices.hand_camera.parse_hand_camera_spec``) on a
-    real one. ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO / keys).
-    ``bridge_url``: the arm the loop's joints go to through the safety chain (``sim://``: the
-    simulated servo arm; a v1/v2 serial port or phidget://: a real one — the caller refuses a real
-    arm on the simulated desk unless asked for on purpose). ``passing_hand``: on the simulated
-    desk, a hand reaches in over the panel now and then."""
+
+def is_auto_repeat_pair(release_stamp: int, press_stamp: int) -> bool:
+    """True when a key press is the second half of an auto-repeat pair with a release: the X
+    server stamps both with the same time (ms); a person cannot release and press again within
+    the same millisecond. Unknown (0) timestamps never pair."""
+    return bool(release_stamp) and release_stamp == press_stamp
+
+
+def build_assist_window(seed: int = 0, vibration: bool = False, hand_camera=None, switches=(), depth: str = "auto",
+                        bridge_url: str = "sim://", passing_hand: bool = False, detector: str = "circles",
+                        worker_clock: str = "wall") -> AssistWindow:
+    """The assistive view as ``deskarm --assist`` runs it (not shown, not started): on the simulated
+    desk, or with ``hand_camera`` (a webcam device: ``core.devices.hand_camera.parse_hand_camera_spec``)
+    on a real one; the loop's joints go through the safety chain to ``bridge_url`` (``sim://``: the
+    simulated servo arm). ``switches``: ``SwitchSpec``s added to the saved settings (gamepad / GPIO /
+    keys). ``passing_hand``: on the simulated desk, a hand reaches in over the panel now and then."""
     import math
 
-    from app.startup import GuiThreadGarbage, make_app
     from core.devices import open_bridge
     from core.kinematics.profile import load_profile
 
-    app = make_app()
     profile = load_profile("assistive_5dof")
     bridge = open_bridge(bridge_url, profile)  # not connected yet: the worker connects it
     ready: dict = {}  # the settings' ready pose, read once the window has loaded them (before start)
@@ -1134,7 +1311,7 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     else:
         factory = lambda: build_webcam_loop(hand_camera, bridge=bridge, depth=depth,  # noqa: E731
                                             ready_q=ready.get("q"), detector=detector)
-    window = AssistWindow(factory, worker_clock="wall", arm_factory=guarded_arm_factory(bridge))
+    window = AssistWindow(factory, worker_clock=worker_clock, arm_factory=guarded_arm_factory(bridge))
     ready_deg = window.settings.ready_deg
     if ready_deg:
         problem = ready_pose_problem(ready_deg, profile)
@@ -1144,15 +1321,94 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
             ready["q"] = tuple(math.radians(v) for v in ready_deg)
     if switches:
         window.set_settings(with_switches(window.settings, switches))
+    return window
+
+
+def show_filling_screen(window: QtWidgets.QWidget, size: tuple[int, int] = (800, 480)) -> None:
+    """Show ``window`` over all of its screen's available geometry, with or without a window manager.
+
+    Full screen (no title bar) on a screen no bigger than ``size`` (the 7" 800×480 panel),
+    maximised on a bigger one. The geometry is set first: with no window manager nothing acts on
+    the full-screen or maximised state, and the window came up at its size hint (526×392 on an
+    800×480 screen: 30 px boxes, the hint cut off)."""
+    screen = window.screen() or QtGui.QGuiApplication.primaryScreen()
+    free = screen.availableGeometry() if screen is not None else QtCore.QRect(0, 0, *size)
+    window.setGeometry(free)
+    if free.width() <= size[0] and free.height() <= size[1]:
+        window.showFullScreen()
+    else:
+        window.showMaximized()
+    if window.geometry() != free:  # a platform that ignored the state (offscreen, X11 without a manager)
+        window.setGeometry(free)
+    if QtGui.QGuiApplication.platformName() != "offscreen":  # (offscreen has no raise: it would only warn)
+        window.raise_()
+        window.activateWindow()  # the keys (Esc, Ctrl+Q, key switches) go to the window from the start
+
+
+def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibration: bool = False,
+                      hand_camera=None, switches=(), depth: str = "auto", bridge_url: str = "sim://",
+                      passing_hand: bool = False, detector: str = "circles") -> int:
+    """Open the assistive view (wall clock), filling its screen, and run until it is closed: on the
+    simulated desk, or with ``hand_camera`` on a real one (``build_assist_window``). ``bridge_url``:
+    the arm the loop's joints go to through the safety chain (``sim://``: the simulated servo arm; a
+    v1/v2 serial port or phidget://: a real one — the caller refuses a real arm on the simulated desk
+    unless asked for on purpose). ``size``: the largest screen shown full screen (a bigger one gets
+    a maximised window)."""
+    from app.startup import GuiThreadGarbage, make_app
+
+    app = make_app()
+    window = build_assist_window(seed, vibration, hand_camera, switches, depth, bridge_url, passing_hand, detector)
     app.aboutToQuit.connect(window.stop)
     garbage = GuiThreadGarbage(app)  # collections only in the GUI thread (see app/startup.py)
     app.aboutToQuit.connect(garbage.stop)
-    screen = app.primaryScreen()
-    free = screen.availableGeometry() if screen is not None else None
-    if free is not None and free.width() <= size[0] and free.height() <= size[1]:
-        window.showFullScreen()  # the 7" 800x480 panel: all of it, no title bar
-    else:
-        window.resize(*size)
-        window.show()
+    show_filling_screen(window, size)
     window.start()
     return app.exec()
+
+
+def take_assist_screenshot(path: str, size: tuple[int, int] = (800, 480), after_s: float = 2.0, seed: int = 0,
+                           hand_camera=None, switches=(), passing_hand: bool = False,
+                           detector: str = "circles") -> int:
+    """``deskarm --assist --screenshot PATH``: the assistive view offscreen at exactly ``size``, in the
+    saved input mode, once the boxes are offered (at least ``after_s`` s after the start, at most
+    SCREENSHOT_WAIT_S more), saved as a PNG of exactly WxH pixels. The arm is always the simulated
+    servo arm: a screenshot never moves a real one. Returns the exit code (1: not written)."""
+    from app.startup import make_app
+
+    app = make_app()
+    window = build_assist_window(seed, False, hand_camera, switches, "auto", "sim://", passing_hand, detector,
+                                 worker_clock="sim")
+    window.setFixedSize(*size)  # exactly what was asked for, even below the layout's minimum
+    window.show()
+    window.start()
+    started = time.monotonic()
+    result: dict = {}
+
+    def poll() -> None:
+        elapsed = time.monotonic() - started
+        ready = window.choosing or window.state_text == "error"
+        if elapsed < after_s or (not ready and elapsed < after_s + SCREENSHOT_WAIT_S):
+            return
+        timer.stop()
+        image = window.grab().toImage()
+        if (image.width(), image.height()) != size:  # a device pixel ratio other than 1
+            image = image.scaled(*size, QtCore.Qt.AspectRatioMode.IgnoreAspectRatio,
+                                 QtCore.Qt.TransformationMode.SmoothTransformation)
+        result.update(saved=image.save(path, "PNG"), state=window.state_text, after_s=elapsed)
+        window.stop()
+        window.close()
+        app.quit()
+
+    timer = QtCore.QTimer()
+    timer.setInterval(50)
+    timer.timeout.connect(poll)
+    timer.start()
+    app.exec()
+    if not result.get("saved"):
+        print(f"deskarm: could not write the screenshot to {path}: check the folder exists and is writable",
+              file=sys.stderr)
+        return 1
+    mode = MODE_NAMES[window.settings.mode]
+    print(f"deskarm: screenshot saved to {path} ({size[0]}x{size[1]}, assistive view, {mode}: "
+          f"{result['state']}, after {result['after_s']:.1f} s)")
+    return 0

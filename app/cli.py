@@ -191,6 +191,18 @@ def run_assist(args) -> int:
     if refusal:
         print(f"deskarm: {refusal}", file=sys.stderr)
         return 2
+    if args.screenshot:  # always offscreen at --size (as the main window's): needs no display, moves no real arm
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"
+        from app.assist_window import take_assist_screenshot
+
+        return take_assist_screenshot(args.screenshot, size, args.after, hand_camera=hand_camera, switches=switches,
+                                      passing_hand=args.scenario == "panel", detector=detector)
+    from app.cli_assist import display_problem
+
+    problem = display_problem(os.environ)
+    if problem:
+        print(f"deskarm: {problem}", file=sys.stderr)
+        return 2
     from app.assist_window import run_assist_window
 
     return run_assist_window(size, hand_camera=hand_camera, switches=switches, bridge_url=args.bridge,

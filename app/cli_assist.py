@@ -68,6 +68,27 @@ DESK_BUTTON_RADIUS_M = 0.01125
 DESK_BUTTON_CENTRE_SHIFT = 0.063
 
 
+def display_problem(environ, platform: str = sys.platform) -> str:
+    """Why a window cannot open here ("" when it can): on Linux Qt needs a display — X11's
+    DISPLAY, Wayland's WAYLAND_DISPLAY — or a platform named in QT_QPA_PLATFORM (eglfs or linuxfb
+    draw on a screen without a desktop). Without one Qt aborts the process (exit 134) after a
+    screenful of plugin messages; this is checked first and said in one line instead."""
+    if not platform.startswith("linux"):
+        return ""
+    qpa = environ.get("QT_QPA_PLATFORM", "").split(":", 1)[0].strip()
+    has_x, has_wayland = bool(environ.get("DISPLAY")), bool(environ.get("WAYLAND_DISPLAY"))
+    if qpa == "xcb" and not has_x:
+        where = "QT_QPA_PLATFORM=xcb but DISPLAY is not set"
+    elif qpa.startswith("wayland") and not has_wayland:
+        where = f"QT_QPA_PLATFORM={qpa} but WAYLAND_DISPLAY is not set"
+    elif not qpa and not (has_x or has_wayland):
+        where = "DISPLAY and WAYLAND_DISPLAY are not set"
+    else:
+        return ""
+    return (f"no display to open the window on ({where}) — run it on the desktop, set QT_QPA_PLATFORM=eglfs "
+            f"(or linuxfb) for a screen without a desktop, or add --screenshot out.png to render it offscreen")
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:
         self.exit(2, f"{self.prog}: {message}\n")

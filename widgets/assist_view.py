@@ -5,18 +5,24 @@ it, every selectable box as a thick black-and-white frame with its number in a l
 highlighted box (scanning) gets a wide yellow frame on black and a tinted fill — high contrast on
 any background; the chosen box (the arm is on its way) is drawn green. A tap (or click) outside
 every box shows a brief acknowledgement — a grey ring and "not a button" — and nothing else.
+A box and its number badge are one target: ``box_at`` finds the box under a point on either
+(the badges sit half outside the outline, where a finger aiming at the big number lands).
 
 The view only shows and reports: the window decides what a press means (a tap in touch mode,
 a switch in the scanning modes).
 
-Signals:
-- sigPressed(str, object): a mouse button ("mouse:left", "mouse:right", "mouse:middle") went down
-  over the view; the object is the image point (x, y) in pixels, or None when outside the image.
+Signals (GUI thread):
+- sigPressed(str, object, object): a mouse button ("mouse:left", "mouse:right", "mouse:middle")
+  went down over the view; the image point (x, y) in pixels (None outside the image) and the box
+  under the press, outline or badge (its index, None when on none).
 - sigReleased(str): that mouse button came up.
+
+``SwitchSafeButton``: a push button that a switch press never clicks — in the switch modes a
+mouse button that is a switch, pressed over it, is handed on as that switch (the window's ☰ menu).
 """
 from __future__ import annotations
 
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
@@ -36,7 +42,7 @@ MOUSE_NAMES = {
 class AssistView(QtWidgets.QWidget):
     """The camera image with numbered boxes, a highlight, the chosen box and tap acknowledgements."""
 
-    sigPressed = QtCore.Signal(str, object)
+    sigPressed = QtCore.Signal(str, object, object)
     sigReleased = QtCore.Signal(str)
 
     def __init__(self, parent: Optional[QtWidgets.QWidget] = None):
@@ -141,6 +147,38 @@ class AssistView(QtWidgets.QWidget):
             x, y, w, h = self.chosen_centre[0] - half, self.chosen_centre[1] - half, 2 * half, 2 * half
         return QtCore.QRectF(ox + x * s, oy + y * s, w * s, h * s)
 
+    def _label_font(self) -> QtGui.QFont:
+        font = QtGui.QFont(self.font())
+        font.setBold(True)
+        font.setPixelSize(max(LABEL_MIN_PX - 6, int(min(self.width(), self.height()) / 14)))
+        return font
+
+    def badge_rect(self, index: int) -> QtCore.QRectF:
+        """Box ``index``'s number badge in widget coordinates (on the outline's top-left corner)."""
+        fm = QtGui.QFontMetrics(self._label_font())
+        r = self.box_rect(index)
+        h = max(LABEL_MIN_PX, fm.height() + 4)
+        w = max(h, fm.horizontalAdvance(str(index + 1)) + 14)
+        return QtCore.QRectF(r.left() - w / 3, r.top() - h / 2, w, h)
+
+    def shown_boxes(self) -> list[int]:
+        """The boxes drawn now (all, or only the chosen one while the arm goes to it)."""
+        return [i for i in range(len(self.boxes)) if self.chosen is None or i == self.chosen]
+
+    def box_at(self, widget_point: QtCore.QPointF) -> Optional[int]:
+        """The box under a widget point — on its badge or inside its outline — or None.
+
+        The badges are drawn over every outline, so a badge wins; among outlines the smallest
+        (as ``core.motion.scanning.TouchSelector`` chooses)."""
+        shown = self.shown_boxes()
+        for i in reversed(shown):  # the last badge drawn is the one on top
+            if self.badge_rect(i).contains(widget_point):
+                return i
+        inside = [i for i in shown if self.box_rect(i).contains(widget_point)]
+        if not inside:
+            return None
+        return min(inside, key=lambda i: self.box_rect(i).width() * self.box_rect(i).height())
+
     # -- input ---------------------------------------------------------------------------------
 
     def mousePressEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
@@ -148,7 +186,7 @@ class AssistView(QtWidgets.QWidget):
         if name is None:
             return super().mousePressEvent(event)
         event.accept()
-        self.sigPressed.emit(name, self.to_image(event.position()))
+        self.sigPressed.emit(name, self.to_image(event.position()), self.box_at(event.position()))
 
     def mouseReleaseEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
         name = MOUSE_NAMES.get(event.button())
@@ -167,14 +205,13 @@ class AssistView(QtWidgets.QWidget):
         iw, ih = self._image_size
         if self._image is not None:
             p.drawImage(QtCore.QRectF(ox, oy, iw * s, ih * s), self._image)
-        label_font = QtGui.QFont(self.font())
-        label_font.setBold(True)
-        label_font.setPixelSize(max(LABEL_MIN_PX - 6, int(min(self.width(), self.height()) / 14)))
+        label_font = self._label_font()
         p.setFont(label_font)
-        fm = QtGui.QFontMetrics(label_font)
-        for i in range(len(self.boxes)):
-            if self.chosen is None or i == self.chosen:
-                self._paint_box(p, i, fm)
+        shown = self.shown_boxes()
+        for i in shown:
+            self._paint_box(p, i)
+        for i in shown:  # the badges over every outline: what is on top is what a tap chooses (box_at)
+            self._paint_badge(p, i)
         if self._ack_point is not None:
             self._paint_ack(p, label_font)
         if self.message:
@@ -188,7 +225,7 @@ class AssistView(QtWidgets.QWidget):
             p.drawText(band, QtCore.Qt.AlignmentFlag.AlignCenter, self.message)
         p.end()
 
-    def _paint_box(self, p: QtGui.QPainter, i: int, fm: QtGui.QFontMetrics) -> None:
+    def _paint_box(self, p: QtGui.QPainter, i: int) -> None:
         r = self.box_rect(i)
         highlighted = i == self.highlight
         chosen = i == self.chosen
@@ -208,22 +245,22 @@ class AssistView(QtWidgets.QWidget):
         p.drawRoundedRect(r, 6, 6)
         p.setPen(QtGui.QPen(colour, width))
         p.drawRoundedRect(r, 6, 6)
-        # the number: a filled label on the box's top-left corner
-        text = str(i + 1)
-        h = max(LABEL_MIN_PX, fm.height() + 4)
-        w = max(h, fm.horizontalAdvance(text) + 14)
-        label = QtCore.QRectF(r.left() - w / 3, r.top() - h / 2, w, h)
-        fill = colour if (highlighted or chosen) else QtGui.QColor("black")
-        p.setPen(QtGui.QPen(QtGui.QColor("black") if (highlighted or chosen) else QtGui.QColor("white"), 2))
-        p.setBrush(fill)
-        p.drawRoundedRect(label, 6, 6)
-        p.setPen(QtGui.QColor("black") if (highlighted or chosen) else QtGui.QColor("white"))
-        p.drawText(label, QtCore.Qt.AlignmentFlag.AlignCenter, text)
         if chosen and self.chosen_centre is not None:
             c = self.to_widget(self.chosen_centre)
             p.setPen(QtGui.QPen(CHOSEN_COLOUR, 3))
             p.drawLine(QtCore.QPointF(c.x() - 14, c.y()), QtCore.QPointF(c.x() + 14, c.y()))
             p.drawLine(QtCore.QPointF(c.x(), c.y() - 14), QtCore.QPointF(c.x(), c.y() + 14))
+
+    def _paint_badge(self, p: QtGui.QPainter, i: int) -> None:
+        """The number: a filled label on the box's top-left corner (``badge_rect``)."""
+        lit = i == self.highlight or i == self.chosen
+        colour = CHOSEN_COLOUR if i == self.chosen else HIGHLIGHT_COLOUR
+        label = self.badge_rect(i)
+        p.setPen(QtGui.QPen(QtGui.QColor("black") if lit else QtGui.QColor("white"), 2))
+        p.setBrush(colour if lit else QtGui.QColor("black"))
+        p.drawRoundedRect(label, 6, 6)
+        p.setPen(QtGui.QColor("black") if lit else QtGui.QColor("white"))
+        p.drawText(label, QtCore.Qt.AlignmentFlag.AlignCenter, str(i + 1))
 
     def _paint_ack(self, p: QtGui.QPainter, font: QtGui.QFont) -> None:
         c = self.to_widget(self._ack_point)
@@ -241,3 +278,49 @@ class AssistView(QtWidgets.QWidget):
         p.drawRoundedRect(band, 6, 6)
         p.setPen(QtGui.QColor("white"))
         p.drawText(band, QtCore.Qt.AlignmentFlag.AlignCenter, text)
+
+
+class SwitchSafeButton(QtWidgets.QPushButton):
+    """A push button that a switch press never clicks.
+
+    ``is_switch(name)`` (set by the owner) says whether a mouse button ("mouse:left", …) is a
+    switch in the current input mode. Such a press over the button is not a click: it is handed
+    on through ``sigSwitchPressed`` / ``sigSwitchReleased``, as a press on the camera view would
+    be — a switch user whose pointer rests on the button neither opens nor triggers it. Other
+    buttons (and every button in touch mode) click as usual.
+
+    Signals (GUI thread):
+    - sigSwitchPressed(str): a mouse switch went down over the button (its name).
+    - sigSwitchReleased(str): that mouse switch came up.
+    """
+
+    sigSwitchPressed = QtCore.Signal(str)
+    sigSwitchReleased = QtCore.Signal(str)
+
+    def __init__(self, text: str, is_switch: Callable[[str], bool] = lambda name: False,
+                 parent: Optional[QtWidgets.QWidget] = None):
+        super().__init__(text, parent)
+        self.is_switch = is_switch
+        self._switch_down: Optional[str] = None
+        self.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)
+
+    def mousePressEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
+        name = MOUSE_NAMES.get(event.button())
+        if name is not None and self.is_switch(name):
+            event.accept()
+            self._switch_down = name
+            self.sigSwitchPressed.emit(name)
+            return
+        super().mousePressEvent(event)
+
+    def mouseDoubleClickEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
+        self.mousePressEvent(event)  # a quick second press is a second switch press, never a click
+
+    def mouseReleaseEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
+        name = MOUSE_NAMES.get(event.button())
+        if name is not None and name == self._switch_down:
+            event.accept()
+            self._switch_down = None
+            self.sigSwitchReleased.emit(name)
+            return
+        super().mouseReleaseEvent(event)
