@@ -278,10 +278,18 @@ def main(argv: list[str] | None = None) -> int:
 
             return run_headless(options, args.duration, args.json, record=args.record)
         if args.screenshot:
-            os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+            # always offscreen (even with QT_QPA_PLATFORM=xcb and no display, where Qt would abort):
+            # the PNG is exactly --size and needs no screen
+            os.environ["QT_QPA_PLATFORM"] = "offscreen"
             from app.gui import take_screenshot
 
             return take_screenshot(options, args.screenshot, args.after, size)
+        from app.cli_assist import display_problem
+
+        problem = display_problem(os.environ)
+        if problem:  # Qt would abort (exit 134) after a screenful of plugin messages
+            print(f"deskarm: {problem}", file=sys.stderr)
+            return 2
         from app.startup import show_splash
 
         splash = show_splash()  # on screen before OpenCV, Pinocchio and the cameras load
