@@ -23,7 +23,6 @@ STARTING_TEXT = "starting cameras…"  # the placeholder until the first image
 PLACEHOLDER_SCALE = 1.6  # the placeholder's font size, times the view's
 OVERLAY_MIN_PT = 7.0  # overlay text shrinks to fit a small view, never below this
 OVERLAY_INSET_PX = 4  # overlay text keeps this far from the edges of the area it sits in
-LABEL_GAP_VIEW_PX = 2.0  # between a marker's outline and its label (image px)
 # marker-less objects: one outline colour per track id (bright on a desk, apart from the markers'
 # green and orange), the id's colour = OBJECT_COLOURS[id % len]
 OBJECT_COLOURS = ((0, 200, 255), (255, 80, 220), (255, 225, 0), (255, 110, 60),
@@ -31,7 +30,28 @@ OBJECT_COLOURS = ((0, 200, 255), (255, 80, 220), (255, 225, 0), (255, 110, 60),
 OBJECT_TAP_MARGIN_PX = 6.0  # a tap this near an object's box (image px) still picks it
 CIRCLE_POINTS = 40  # outline of a circle detection
 OBJECT_LABEL_PT = 8.0  # object labels: several per view, bold but smaller than a marker's id
-OBJECT_Z, OBJECT_DETAIL_Z = 9, 11  # under the markers' items (10); a label with a position over them
+MARKER_ID_PT = 12.0  # a marker's id, on the marker
+SMALL_VIEW_PX = 260  # a view narrower than this (800x480: ~185 px) draws its labels smaller:
+SMALL_OBJECT_LABEL_PT, SMALL_MARKER_ID_PT = 7.0, 8.0  # a 640 px image is shown at ~1/3.5 there
+SMALL_FPS_SCALE = 0.8  # and the fps label's font this much of the normal one
+FPS_STYLE = "QLabel {{ background: rgba(0,0,0,150); color: white; padding: {padding}; }}"
+LABEL_RINGS = 2  # rows of places tried above and below a thing before its label is shortened
+RING_STEP_PX = 16.0  # the second row is this much farther out (screen px; a line of text)
+LABEL_GAP_PX = 2.0  # screen px between a label and its thing, and between two labels
+LAYOUT_RETRIES = 3  # a layout that shortened labels is tried again this often, those first
+FREE_PLACES_ENOUGH = 3  # a label with free places on this many lines near its thing is placed after the others
+LABEL_MARGIN_PX = 2.0  # between a label's text and the edge of its background
+# what a label's colour word draws in: shades that read on a dark label (the 8 the HSV detector
+# names by default and a few more); other SVG colour names are drawn as Qt knows them
+NAMED_COLOURS = {
+    "red": (255, 70, 70), "orange": (255, 150, 40), "yellow": (255, 230, 40), "green": (70, 220, 70),
+    "blue": (90, 155, 255), "purple": (195, 110, 255), "violet": (205, 120, 255), "pink": (255, 135, 205),
+    "magenta": (255, 70, 255), "cyan": (40, 225, 235), "brown": (190, 120, 60), "white": (245, 245, 245),
+    "grey": (175, 175, 175), "gray": (175, 175, 175), "black": (20, 20, 20),
+}
+DARK_TEXT_LUMA = 90.0  # a colour darker than this (0…255) is drawn on a light label, not a dark one
+OBJECT_Z, MARKER_Z = 9, 10  # the outlines: objects under markers
+LABEL_Z, DETAIL_LABEL_Z = 11, 12  # every label over every outline; one with a position over the others
 M_TO_CM = 100.0
 
 
@@ -70,6 +90,18 @@ class MarkerOverlay:
         if label is None:
             label = marker_label(obs.marker_id, obs.base_p_centre)
         return cls(obs.marker_id, np.asarray(corners, dtype=float), obs.found, label)
+
+
+@dataclass(frozen=True)
+class DrawnLabel:
+    """A label as drawn over a camera image (``CameraView.drawn_labels``)."""
+
+    kind: str  # "marker id", "marker" (a marker's position) or "object"
+    key: int  # the marker id or the object id
+    text: str  # as shown (a crowded view may show a shorter form)
+    rect: QtCore.QRectF  # where it is drawn, background included, in the CameraView's coordinates
+    colour: QtGui.QColor  # of the text
+    fill: QtGui.QColor  # of the background
 
 
 def same_overlays(a: Sequence[MarkerOverlay], b: Sequence[MarkerOverlay]) -> bool:
@@ -123,6 +155,8 @@ class ObjectOverlay:
     ``box`` is (x, y, w, h) in this camera's raw image px (what a tap hits); ``outline`` the
     drawn shape (N, 2) px (the blob's contour, the circle or the box). ``seen`` False: a track's
     single-view or predicted detection (drawn dashed). ``label`` may have several lines.
+    ``colour`` (r, g, b) of the outline and the label's text; None: the colour the label names
+    (:func:`named_colour`: "#8 orange" is orange), else the track's (:func:`object_colour`).
     """
 
     object_id: int
@@ -130,6 +164,7 @@ class ObjectOverlay:
     outline: np.ndarray
     label: str = ""
     seen: bool = True
+    colour: Optional[tuple[int, int, int]] = None
 
     def __post_init__(self) -> None:
         outline = np.asarray(self.outline, dtype=float).reshape(-1, 2)
@@ -137,6 +172,9 @@ class ObjectOverlay:
             raise ValueError(f"ObjectOverlay.outline has {len(outline)} points; expected ≥ 2")
         object.__setattr__(self, "outline", outline)
         object.__setattr__(self, "box", tuple(float(v) for v in self.box))
+        colour = self.colour if self.colour is not None else named_colour(self.label)
+        if colour is not None:
+            object.__setattr__(self, "colour", tuple(int(c) for c in colour))
 
     @classmethod
     def from_observation(cls, obs, side: str = "left", detailed: bool = True,
@@ -148,14 +186,16 @@ class ObjectOverlay:
             return None
         if label is None:
             label = object_label(obs, detailed)
-        return cls(obs.object_id, d.box, _detection_outline(d), label, bool(obs.triangulated))
+        return cls(obs.object_id, d.box, _detection_outline(d), label, bool(obs.triangulated),
+                   named_colour(str(obs.label)))
 
 
 def same_objects(a: Sequence[ObjectOverlay], b: Sequence[ObjectOverlay]) -> bool:
-    """True when two object overlay lists draw the same (ids, boxes, outlines, labels, state)."""
+    """True when two object overlay lists draw the same (ids, boxes, outlines, labels, colours, state)."""
     return len(a) == len(b) and all(
         x is y or (x.object_id == y.object_id and x.seen == y.seen and x.label == y.label and x.box == y.box
-                   and x.outline.shape == y.outline.shape and np.array_equal(x.outline, y.outline))
+                   and x.colour == y.colour and x.outline.shape == y.outline.shape
+                   and np.array_equal(x.outline, y.outline))
         for x, y in zip(a, b))
 
 
@@ -194,25 +234,268 @@ def disparity_lut() -> np.ndarray:
     return np.vstack([np.zeros((1, 3), np.uint8), table])
 
 
+Rect = tuple[float, float, float, float]  # x0, y0, x1, y1 (image px, y down)
+
+
+def _overlaps(a: Rect, b: Rect) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def _label_lines(w: float, h: float, box: Rect, bounds: Rect, gap: float, on_box: bool,
+                 step: Optional[float] = None):
+    """The lines a w × h label about ``box`` may slide along, in the order they are preferred:
+    (ring, axis, fixed, lo, hi, preferred) — ``axis`` 0: a row at y = ``fixed``, the label's x
+    anywhere in [lo, hi], best at ``preferred``; axis 1: a column at x = ``fixed``, its y in
+    [lo, hi]. On the box's centre first (``on_box``: a marker's id, not sliding); then above,
+    below, right and left of the box — sliding along it but always sharing a quarter of its
+    side, so a label never reads as its neighbour's — then half on its top or bottom edge and
+    on its centre line; then ``step`` (default: the label's height) further out above and below
+    (the next ring). Every line is moved inside ``bounds``."""
+    x0, y0, x1, y1 = box
+    bx0, by0, bx1, by1 = bounds
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    share_x, share_y = 0.25 * min(w, x1 - x0), 0.25 * min(h, y1 - y0)
+    x_lo, x_hi = max(bx0, x0 - w + share_x), min(bx1 - w, x1 - share_x)
+    y_lo, y_hi = max(by0, y0 - h + share_y), min(by1 - h, y1 - share_y)
+    x_pref, y_pref = cx - 0.5 * w, cy - 0.5 * h
+    step = h if step is None else min(step, h)
+
+    def row(ring, y):
+        return ring, 0, min(max(y, by0), by1 - h), x_lo, x_hi, x_pref
+
+    def column(ring, x):
+        return ring, 1, min(max(x, bx0), bx1 - w), y_lo, y_hi, y_pref
+
+    if on_box:
+        x = min(max(x_pref, bx0), bx1 - w)
+        yield -1, 0, min(max(y_pref, by0), by1 - h), x, x, x
+    for ring in range(LABEL_RINGS):
+        yield row(ring, y0 - gap - h - ring * (step + gap))  # above
+        yield row(ring, y1 + gap + ring * (step + gap))  # below
+        if ring == 0:  # beside it (a label's width further out is too far to tell whose it is)
+            yield column(ring, x1 + gap)  # right
+            yield column(ring, x0 - gap - w)  # left
+        if ring == 0 and not on_box:  # half on its own thing, then on it, rather than over another
+            yield row(ring, y0 - 0.5 * h)
+            yield row(ring, y1 - 0.5 * h)
+            yield row(ring, y_pref)
+
+
+def _free_spot(line, w: float, h: float, obstacles: Sequence[Rect]) -> Optional[tuple[float, float]]:
+    """The top-left corner on ``line`` (see ``_label_lines``) nearest its preferred place where a
+    w × h label overlaps none of ``obstacles``, or None."""
+    _ring, axis, fixed, lo, hi, pref = line
+    if lo > hi:
+        return None
+    length, across = (w, h) if axis == 0 else (h, w)
+    band_lo, band_hi = fixed, fixed + across
+    # the starts along the line that would overlap an obstacle: open intervals, sorted
+    blocked = sorted((o[axis] - length, o[axis + 2]) for o in obstacles
+                     if o[1 - axis] < band_hi and band_lo < o[3 - axis])
+    best, start = None, lo
+    for a, b in blocked + [(hi, math.inf)]:  # the free stretches between the blocked ones
+        end = min(a, hi)
+        if end >= start:
+            s = min(max(pref, start), end)
+            if best is None or abs(s - pref) < abs(best - pref):
+                best = s
+        start = max(start, b)
+        if start > hi:
+            break
+    if best is None:
+        return None
+    return (best, fixed) if axis == 0 else (fixed, best)
+
+
+def place_label(size: tuple[float, float], box: Rect, bounds: Rect, taken: Sequence[Rect],
+                avoid: Sequence[Rect] = (), gap: float = 2.0, on_box: bool = False,
+                step: Optional[float] = None) -> Optional[tuple[float, float]]:
+    """Where a label of ``size`` (w, h) about ``box`` goes: its top-left corner inside
+    ``bounds``, clear of every rectangle in ``taken`` (other labels, with ``gap`` between), or
+    None when there is no such place near the box (all rectangles x0, y0, x1, y1 in one frame,
+    y down).
+
+    The nearest ring of lines with a clear place wins (see ``_label_lines``); in it, the first
+    line with a clear place that covers none of ``avoid`` (the other things' outlines), else the
+    first clear place. Nothing farther: a label away from its thing would read as another's.
+    ``step``: how much farther out the next ring is (at most the label's height).
+    """
+    w, h = size
+    bx0, by0, bx1, by1 = bounds
+    if w > bx1 - bx0 or h > by1 - by0:
+        return None
+    taken = [(t[0] - gap, t[1] - gap, t[2] + gap, t[3] + gap) for t in taken]
+    both = taken + list(avoid)
+    first_clear, first_ring = None, None
+    for line in _label_lines(w, h, box, bounds, gap, on_box, step):
+        ring = line[0]
+        if first_clear is not None and ring != first_ring:
+            return first_clear  # a clear place that covers a thing beats a farther one
+        if ring >= 0:
+            spot = _free_spot(line, w, h, both)
+            if spot is not None:
+                return spot
+        spot = _free_spot(line, w, h, taken)
+        if spot is not None:
+            if ring < 0:  # a marker's id on its marker
+                return spot
+            if first_clear is None:
+                first_clear, first_ring = spot, ring
+    return first_clear
+
+
+def free_places(size: tuple[float, float], box: Rect, bounds: Rect, blocked: Sequence[Rect],
+                avoid: Sequence[Rect], gap: float = 2.0, enough: int = FREE_PLACES_ENOUGH) -> int:
+    """How many of the nearest lines (the first ring of ``_label_lines``) a label of ``size``
+    about ``box`` has a place on that covers nothing in ``blocked`` nor ``avoid``, counted up to
+    ``enough``: the labels with the fewest are placed first, before the others take them."""
+    w, h = size
+    bx0, by0, bx1, by1 = bounds
+    if w > bx1 - bx0 or h > by1 - by0:
+        return 0
+    obstacles = list(blocked) + list(avoid)
+    count = 0
+    for line in _label_lines(w, h, box, bounds, gap, False):
+        if line[0] > 0:
+            break
+        if _free_spot(line, w, h, obstacles) is not None:
+            count += 1
+            if count >= enough:
+                break
+    return count
+
+
+def _text_size(text: str, font: QtGui.QFont) -> tuple[float, float]:
+    """The size (screen px) a pg.TextItem with ``font`` draws ``text`` in, fill included."""
+    key = (text, font.key())
+    size = _TEXT_SIZES.get(key)
+    if size is None:
+        if not _TEXT_DOC:  # measures as QGraphicsTextItem does (document margin included)
+            _TEXT_DOC.append(QtGui.QTextDocument())
+            _TEXT_DOC[0].setDocumentMargin(LABEL_MARGIN_PX)
+        doc = _TEXT_DOC[0]
+        doc.setDefaultFont(font)
+        doc.setPlainText(text)
+        s = doc.size()
+        size = _TEXT_SIZES[key] = (float(s.width()), float(s.height()))
+        if len(_TEXT_SIZES) > 2000:  # moving labels with numbers: keep the cache small
+            _TEXT_SIZES.clear()
+    return size
+
+
+_TEXT_SIZES: dict[tuple[str, str], tuple[float, float]] = {}
+_TEXT_DOC: list[QtGui.QTextDocument] = []  # one, made with the first label (needs the QApplication)
+
+
+def shorter_texts(text: str, object_id: Optional[int] = None) -> list[str]:
+    """``text`` and shorter forms of it for a crowded view, longest first: its first line,
+    then "#id" (an object) — a label with no room near its thing says less rather than cover
+    another label or stray from its thing."""
+    out = [text]
+    first = text.split("\n", 1)[0]
+    if first != text:
+        out.append(first)
+    if object_id is not None and f"#{object_id}" != first:
+        out.append(f"#{object_id}")
+    return out
+
+
+def named_colour(label: str) -> Optional[tuple[int, int, int]]:
+    """The colour a label's words name, as drawn on the camera views ("#8 orange" -> orange,
+    "red ball" -> red), None when it names none ("#3 circle"). Common colour words first
+    (shades that read on a dark label), then any SVG colour name Qt knows ("gold", "navy")."""
+    words = re.findall(r"[a-z]+", label.split("\n", 1)[0].lower())
+    for word in words:
+        if word in NAMED_COLOURS:
+            return NAMED_COLOURS[word]
+    for word in words:
+        if len(word) > 2 and QtGui.QColor.isValidColorName(word):
+            c = QtGui.QColor(word)
+            return c.red(), c.green(), c.blue()
+    return None
+
+
+def _tight(item: pg.TextItem) -> None:
+    """A label's background hugs its text (Qt's default margin is 4 px on every side)."""
+    item.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
+    item.updateTextPos()
+
+
+def _plan_labels(requests, boxes: Sequence[Rect], bounds: Rect, taken: Sequence[Rect], gap: float,
+                 px: tuple[float, float]) -> tuple[dict, set]:
+    """Place labels in the order of ``requests`` ((item, index of its thing in ``boxes``, on the
+    thing, texts longest first) each) with :func:`place_label`: {item: (text, top-left) or None}
+    and the set of items that had to say less (a shorter text, or none)."""
+    taken = list(taken)
+    plan, cut = {}, set()
+    for item, k, on_box, texts in requests:
+        font = item.textItem.font()
+        # a marker's id on the marker may cover what the marker sits on (it names the marker)
+        avoid = [] if on_box else list(boxes[:k]) + list(boxes[k + 1:])
+        plan[item] = None
+        for n, text in enumerate(texts):
+            w, h = _text_size(text, font)
+            size = (w * px[0], h * px[1])
+            spot = place_label(size, boxes[k], bounds, taken, avoid, gap, on_box, RING_STEP_PX * px[1])
+            if spot is not None:
+                plan[item] = (text, spot)
+                taken.append((spot[0], spot[1], spot[0] + size[0], spot[1] + size[1]))
+                if n:
+                    cut.add(item)
+                break
+        if plan[item] is None:
+            cut.add(item)
+    return plan, cut
+
+
+def _plan_score(plan: dict, cut: set) -> tuple[int, int]:
+    """(labels left out, labels shortened) of a plan from :func:`_plan_labels`: lower is better."""
+    hidden = sum(1 for item in cut if plan[item] is None)
+    return hidden, len(cut) - hidden
+
+
+def _set_font_size(item: pg.TextItem, pt: float) -> None:
+    font = item.textItem.font()
+    if font.pointSizeF() != pt:
+        font.setPointSizeF(pt)
+        item.setFont(font)
+
+
+def _fill_for(colour: tuple[int, int, int]) -> QtGui.QBrush:
+    """A label's background: dark under a light colour, light under a dark one (navy, black)."""
+    r, g, b = colour
+    light = 0.299 * r + 0.587 * g + 0.114 * b >= DARK_TEXT_LUMA
+    return pg.mkBrush(0, 0, 0, 170) if light else pg.mkBrush(235, 235, 235, 215)
+
+
 class _MarkerGraphics:
-    """The reusable graphics items of one marker slot (outline, id, label)."""
+    """The reusable graphics items of one marker slot (outline, id, label).
+
+    The view places the id and the label (``CameraView._layout_labels``): the id on the
+    marker, the label beside it, neither over another label.
+    """
 
     def __init__(self, view_box: pg.ViewBox) -> None:
         self.view_box = view_box
-        self._label_anchor: tuple[float, float, float] | None = None  # centre x, top y, bottom y
         self.outline = pg.PlotCurveItem(antialias=True)
-        self.id_text = pg.TextItem(anchor=(0.5, 0.5), color="w", fill=pg.mkBrush(0, 0, 0, 150))
+        self.id_text = pg.TextItem(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 150))
         font = QtGui.QFont()
-        font.setPointSize(12)
+        font.setPointSizeF(MARKER_ID_PT)
         font.setBold(True)
         self.id_text.setFont(font)
-        self.label_text = pg.TextItem(anchor=(0.5, 1.0), color="w",
+        _tight(self.id_text)
+        self.label_text = pg.TextItem(anchor=(0.0, 0.0), color="w",
                                       fill=pg.mkBrush(0, 0, 0, 150))
+        _tight(self.label_text)
+        self.outline.setZValue(MARKER_Z)
+        for item in (self.id_text, self.label_text):
+            item.setZValue(LABEL_Z)
         for item in (self.outline, self.id_text, self.label_text):
-            item.setZValue(10)
             view_box.addItem(item, ignoreBounds=True)
         self.marker_id: Optional[int] = None
         self.polygon = QtGui.QPolygonF()
+        self.box: Optional[Rect] = None  # the marker's bounding box (image px)
+        self.label = ""  # the label the overlay asks for (the item may show less, or none)
         self._found: Optional[bool] = None  # the outline's pen and the id's colour are for this
 
     def show(self, m: MarkerOverlay) -> None:
@@ -224,116 +507,82 @@ class _MarkerGraphics:
             self.id_text.setColor(colour)
             self._found = m.found
         self.outline.setData(closed[:, 0], closed[:, 1])
-        centre = m.corners.mean(axis=0)
         if m.marker_id != self.marker_id:
             self.id_text.setText(str(m.marker_id))
-        self.id_text.setPos(float(centre[0]), float(centre[1]))
-        if m.label != self.label_text.toPlainText():
-            self.label_text.setText(m.label)
-        if m.label:  # small views show ids only: no label to place
-            # smallest row = highest on screen
-            self._label_anchor = (float(centre[0]), float(m.corners[:, 1].min()),
-                                  float(m.corners[:, 1].max()))
-            self.place_label()
-        _set_visible(self.label_text, bool(m.label))
+        self.label = m.label
+        lo, hi = m.corners.min(axis=0), m.corners.max(axis=0)
+        self.box = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
         self.outline.setVisible(True)
-        _set_visible(self.id_text, True)
         self.marker_id = m.marker_id
         self.polygon = QtGui.QPolygonF([QtCore.QPointF(float(x), float(y)) for x, y in m.corners])
 
-    def place_label(self) -> None:
-        """Put the label above the marker (below it when there is no room above) and slide it
-        sideways to stay inside the view: a marker at the edge must not cut its label."""
-        if self._label_anchor is None or not self.label_text.toPlainText():
-            return
-        _place_label_item(self.view_box, self.label_text, *self._label_anchor)
-
     def hide(self) -> None:
-        self._label_anchor = None
         for item in (self.outline, self.id_text, self.label_text):
             item.setVisible(False)
-        self.marker_id = None
+        self.marker_id = self.box = None
+        self.label = ""
         self.polygon = QtGui.QPolygonF()
 
     def set_visible(self, visible: bool) -> None:
+        """Outline only: the view's label layout shows the id and label it finds room for."""
         if self.marker_id is None:
             return
         self.outline.setVisible(visible)
-        _set_visible(self.id_text, visible)
-        _set_visible(self.label_text, visible and bool(self.label_text.toPlainText()))
-
-
-def _place_label_item(view_box: pg.ViewBox, text: pg.TextItem, x: float, top: float, bottom: float) -> None:
-    """Put a label centred at ``x`` above ``top`` (below ``bottom`` when there is no room above,
-    image px) and slide it sideways to stay inside the view: a thing at the edge must not cut
-    its label."""
-    (x0, x1), (y0, y1) = view_box.viewRange()
-    px_w, px_h = view_box.viewPixelSize()  # image px per screen px
-    if not (math.isfinite(px_w) and math.isfinite(px_h)) or px_w <= 0 or px_h <= 0:
-        return
-    rect = text.textItem.boundingRect()
-    w, h = rect.width() * px_w, rect.height() * px_h  # in image px (y down: invertY)
-    if top - LABEL_GAP_VIEW_PX - h >= y0:
-        anchor_y, y = 1.0, top - LABEL_GAP_VIEW_PX
-    else:  # no room above: below it
-        anchor_y, y = 0.0, min(bottom + LABEL_GAP_VIEW_PX, max(y0, y1 - h))
-    x = min(max(x, x0 + 0.5 * w), x1 - 0.5 * w) if w < x1 - x0 else x0 + 0.5 * w
-    anchor = text.anchor
-    if (anchor.x(), anchor.y()) != (0.5, anchor_y):
-        text.setAnchor((0.5, anchor_y))
-    text.setPos(x, y)
+        if not visible:
+            _set_visible(self.id_text, False)
+            _set_visible(self.label_text, False)
 
 
 class _ObjectGraphics:
-    """The reusable graphics items of one object slot (outline and label), in its track's colour."""
+    """The reusable graphics items of one object slot (outline and label), in the colour its
+    name says ("#8 orange": orange) or, for a name that is no colour, its track's colour."""
 
     def __init__(self, view_box: pg.ViewBox) -> None:
         self.view_box = view_box
         self.outline = pg.PlotCurveItem(antialias=True)
-        self.label_text = pg.TextItem(anchor=(0.5, 1.0), color="w", fill=pg.mkBrush(0, 0, 0, 160))
+        self.label_text = pg.TextItem(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 170))
         font = QtGui.QFont()
         font.setPointSizeF(OBJECT_LABEL_PT)
         font.setBold(True)
         self.label_text.setFont(font)
+        _tight(self.label_text)
+        self.outline.setZValue(OBJECT_Z)
+        self.label_text.setZValue(LABEL_Z)
         for item in (self.outline, self.label_text):
-            item.setZValue(OBJECT_Z)  # under the markers' items
             view_box.addItem(item, ignoreBounds=True)
         self.object_id: Optional[int] = None
         self.box: Optional[tuple[float, float, float, float]] = None
+        self.colour: Optional[tuple[int, int, int]] = None  # of the outline and the label's text
         self._style: Optional[tuple[tuple[int, int, int], bool]] = None  # (colour, seen) of the pen
-        self._anchor: Optional[tuple[float, float, float]] = None  # centre x, top y, bottom y
         self._shown: Optional[ObjectOverlay] = None  # what the items show now
 
-    def show(self, o: ObjectOverlay, force: bool = False) -> None:
-        """Draw ``o``; only what differs from what the items show (all of it with ``force``)."""
+    @property
+    def label(self) -> str:
+        """The label the overlay asks for (the item may show a shorter one, or none)."""
+        return "" if self._shown is None else self._shown.label
+
+    def show(self, o: ObjectOverlay, force: bool = False) -> bool:
+        """Draw ``o``; only what differs from what the items show (all of it with ``force``).
+        Returns whether anything changed (the labels must then be laid out again)."""
         shown = None if force else self._shown
         if shown is not None and shown.object_id == o.object_id and same_objects([o], [shown]):
-            return  # a still object (most of a desk): nothing to set
-        colour = object_colour(o.object_id)
+            return False  # a still object (most of a desk): nothing to set
+        colour = o.colour if o.colour is not None else object_colour(o.object_id)
         if (colour, o.seen) != self._style:  # a moving object: only its place and text change
             style = QtCore.Qt.PenStyle.SolidLine if o.seen else QtCore.Qt.PenStyle.DashLine
             self.outline.setPen(pg.mkPen(colour, width=3, style=style))
             self.label_text.setColor(colour)
+            self.label_text.fill = _fill_for(colour)
+            self.label_text.update()
             self._style = (colour, o.seen)
         if shown is None or shown.outline.shape != o.outline.shape or not np.array_equal(shown.outline, o.outline):
             closed = np.vstack([o.outline, o.outline[:1]])
             self.outline.setData(closed[:, 0], closed[:, 1])
-        if o.label != self.label_text.toPlainText():
-            self.label_text.setText(o.label)
-            # a label with a position (the followed object in a small view) goes over the others
-            self.label_text.setZValue(OBJECT_DETAIL_Z if "\n" in o.label else OBJECT_Z)
-        x, y, w, h = o.box
-        anchor = (x + 0.5 * w, y, y + h)
-        if anchor != self._anchor or shown is None or o.label != shown.label:
-            self._anchor = anchor
-            self.place_label()
-        self.object_id, self.box, self._shown = o.object_id, o.box, o
+        # a label with a position (the followed object in a small view) goes over the others
+        self.label_text.setZValue(DETAIL_LABEL_Z if "\n" in o.label else LABEL_Z)
+        self.object_id, self.box, self._shown, self.colour = o.object_id, o.box, o, colour
         self.outline.setVisible(True)
-        _set_visible(self.label_text, bool(o.label))
-
-    def place_label(self) -> None:
-        if self._anchor is not None and self.label_text.toPlainText():
-            _place_label_item(self.view_box, self.label_text, *self._anchor)
+        return True
 
     def contains(self, x_px: float, y_px: float) -> bool:
         if self.box is None or not self.outline.isVisible():
@@ -343,16 +592,18 @@ class _ObjectGraphics:
         return x - m <= x_px <= x + w + m and y - m <= y_px <= y + h + m
 
     def hide(self) -> None:
-        self._anchor = self._shown = None
+        self._shown = None
         self.outline.setVisible(False)
         self.label_text.setVisible(False)
-        self.object_id = self.box = None
+        self.object_id = self.box = self.colour = None
 
     def set_visible(self, visible: bool) -> None:
+        """Outline only: the view's label layout shows the label where it finds room."""
         if self.object_id is None:
             return
         self.outline.setVisible(visible)
-        _set_visible(self.label_text, visible and bool(self.label_text.toPlainText()))
+        if not visible:
+            _set_visible(self.label_text, False)
 
 
 def _set_visible(item: pg.TextItem, visible: bool) -> None:
@@ -454,8 +705,9 @@ class CameraView(QtWidgets.QWidget):
         # Overlays are child widgets of the graphics view, placed on resize.
         self._banner = Banner(self._graphics)
         self._fps_label = QtWidgets.QLabel("— fps", self._graphics)
-        self._fps_label.setStyleSheet("QLabel { background: rgba(0,0,0,150); color: white;"
-                                      " padding: 2px 6px; }")
+        self._fps_label.setStyleSheet(FPS_STYLE.format(padding="2px 6px"))
+        self._fps_pt = self._fps_label.font().pointSizeF()
+        self._fps_small: Optional[bool] = None  # the fps label's size is for a small view
         self._fps_label.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents)
         # margins, not style-sheet padding, and a bold font, not font-weight: what heightForWidth
         # and the font metrics measure is then what is drawn
@@ -640,6 +892,7 @@ class CameraView(QtWidgets.QWidget):
             slot.set_visible(self._mode == "image")
         for slot in self._markers[len(markers):]:
             slot.hide()
+        self._layout_labels()
 
     def set_objects(self, objects: Sequence[ObjectOverlay]) -> None:
         """Draw these marker-less objects (replacing the previous ones); the same again is
@@ -649,12 +902,16 @@ class CameraView(QtWidgets.QWidget):
         self._shown_objects = list(objects)
         while len(self._objects) < len(objects):
             self._objects.append(_ObjectGraphics(self._view_box))
+        changed = False
         for slot, overlay in zip(self._objects, objects):
-            slot.show(overlay, force=self.redraw_unchanged)
+            changed |= slot.show(overlay, force=self.redraw_unchanged)
             slot.set_visible(self._mode == "image")
         for slot in self._objects[len(objects):]:
             if slot.object_id is not None:
                 slot.hide()
+                changed = True
+        if changed:
+            self._layout_labels()
 
     @property
     def shown_objects(self) -> list[ObjectOverlay]:
@@ -662,9 +919,35 @@ class CameraView(QtWidgets.QWidget):
         return list(self._shown_objects)
 
     def object_labels(self) -> dict[int, str]:
-        """The text of each drawn object's label, by object id (for tests)."""
-        return {slot.object_id: slot.label_text.toPlainText() for slot in self._objects
-                if slot.object_id is not None and slot.outline.isVisible()}
+        """The text each drawn object's label shows, by object id ("" when there was no room
+        for it): the overlay's label, or a shorter form of it in a crowded view."""
+        return {slot.object_id: slot.label_text.toPlainText() if slot.label_text.isVisible() else ""
+                for slot in self._objects if slot.object_id is not None and slot.outline.isVisible()}
+
+    def drawn_labels(self) -> list[DrawnLabel]:
+        """Every label drawn over the image now (marker ids, marker labels, object labels) with
+        where it is in this widget and its colours (tests, screenshots)."""
+        out = []
+        items = [("marker id", s.marker_id, s.id_text) for s in self._markers if s.marker_id is not None]
+        items += [("marker", s.marker_id, s.label_text) for s in self._markers if s.marker_id is not None]
+        items += [("object", s.object_id, s.label_text) for s in self._objects if s.object_id is not None]
+        for kind, key, item in items:
+            if not item.isVisible():
+                continue
+            view_rect = self._graphics.viewportTransform().mapRect(item.sceneBoundingRect())
+            rect = view_rect.translated(QtCore.QPointF(self._graphics.viewport().mapTo(self, QtCore.QPoint(0, 0))))
+            out.append(DrawnLabel(kind, int(key), item.toPlainText(), rect, QtGui.QColor(item.color),
+                                  QtGui.QColor(item.fill.color())))
+        return out
+
+    def object_colours(self) -> dict[int, tuple[int, int, int]]:
+        """The outline colour of each drawn object, by object id (the pen's, as drawn)."""
+        out = {}
+        for slot in self._objects:
+            if slot.object_id is not None and slot.outline.isVisible():
+                c = slot.outline.opts["pen"].color()
+                out[slot.object_id] = (c.red(), c.green(), c.blue())
+        return out
 
     def object_at(self, x_px: float, y_px: float) -> Optional[int]:
         """The id of the drawn object whose box (plus a small margin) holds (x, y) px, else None;
@@ -775,6 +1058,7 @@ class CameraView(QtWidgets.QWidget):
         self._colour_bar.setVisible(disparity)
         for slot in (*self._markers, *self._objects):
             slot.set_visible(not disparity)
+        self._layout_labels()
         self._update_probe_visibility()
         if disparity and self._last_disparity is not None:
             self.show_disparity(*self._last_disparity)
@@ -812,13 +1096,8 @@ class CameraView(QtWidgets.QWidget):
         return super().eventFilter(watched, event)
 
     def _on_view_transform(self, *_: object) -> None:
-        """The image moved or was rescaled on screen: marker labels and the probe follow."""
-        for slot in self._markers:
-            if slot.marker_id is not None:
-                slot.place_label()
-        for slot in self._objects:
-            if slot.object_id is not None:
-                slot.place_label()
+        """The image moved or was rescaled on screen: the labels and the probe follow."""
+        self._layout_labels()
         if not self._probe_label.isHidden():
             self._place_probe()
 
@@ -833,6 +1112,13 @@ class CameraView(QtWidgets.QWidget):
             height = max(TOUCH_PX - 8, self._banner.heightForWidth(width))
             self._banner.setGeometry(0, 0, width, height)
             self._banner.raise_()
+        small = width < SMALL_VIEW_PX
+        if small != self._fps_small:  # a small view: a smaller fps label, more room for labels
+            self._fps_small = small
+            self._fps_label.setStyleSheet(FPS_STYLE.format(padding="1px 3px" if small else "2px 6px"))
+            font = self._fps_label.font()
+            font.setPointSizeF(self._fps_pt * (SMALL_FPS_SCALE if small else 1.0))
+            self._fps_label.setFont(font)
         self._fps_label.adjustSize()
         self._fps_label.move(4, self._graphics.height() - self._fps_label.height() - 4)
         self._fps_label.raise_()
@@ -846,6 +1132,84 @@ class CameraView(QtWidgets.QWidget):
             self._placeholder.raise_()
         if not self._probe_label.isHidden():
             self._place_probe()
+        self._layout_labels()  # the banner and the fps label are places no label may take
+
+    def _image_rect_of(self, widget: QtWidgets.QWidget) -> Rect:
+        """Where an overlay widget (a child of the graphics view) is, in image px."""
+        geometry = widget.geometry()
+        offset = self._graphics.viewport().pos()
+        rect = QtCore.QRectF(geometry.translated(-offset))
+        view = self._view_box.mapSceneToView(self._graphics.mapToScene(rect.toRect())).boundingRect()
+        return view.left(), view.top(), view.right(), view.bottom()
+
+    def _layout_labels(self) -> None:
+        """Place every marker id, marker label and object label so that none covers another,
+        nor the fps label or the banner: each at the nearest free place around its thing (a
+        marker's id on the marker), preferring places that cover no other thing; in a shorter
+        form when no place near it is free (:func:`shorter_texts`); left out when even that
+        has no room near its thing (never drawn far away, where it would name a neighbour).
+        Fonts are smaller in a small view."""
+        if self._mode != "image":
+            return
+        (x0, x1), (y0, y1) = self._view_box.viewRange()
+        px_w, px_h = self._view_box.viewPixelSize()  # image px per screen px
+        if not all(math.isfinite(v) and v > 0 for v in (px_w, px_h)):
+            return
+        markers = sorted((s for s in self._markers if s.marker_id is not None and s.outline.isVisible()),
+                         key=lambda s: s.marker_id)
+        objects = [s for s in self._objects if s.object_id is not None and s.outline.isVisible()]
+        small = self._graphics.width() < SMALL_VIEW_PX
+        object_pt = SMALL_OBJECT_LABEL_PT if small else OBJECT_LABEL_PT
+        marker_pt = SMALL_MARKER_ID_PT if small else MARKER_ID_PT
+        for s in markers:
+            _set_font_size(s.id_text, marker_pt)
+            if not s.label:
+                _set_visible(s.label_text, False)
+        for s in objects:
+            _set_font_size(s.label_text, object_pt)
+            if not s.label:
+                _set_visible(s.label_text, False)
+        boxes = [s.box for s in markers] + [(x, y, x + w, y + h) for x, y, w, h in (s.box for s in objects)]
+        bounds = (x0, y0, x1, y1)
+        taken = [self._image_rect_of(w) for w in (self._fps_label, self._banner) if not w.isHidden()]
+        gap = LABEL_GAP_PX * px_w
+        # (item, index of its thing in boxes, centred on it, texts to try)
+        requests = [(s.id_text, k, True, [str(s.marker_id)]) for k, s in enumerate(markers)]
+        requests += [(s.label_text, k, False, [s.label]) for k, s in enumerate(markers) if s.label]
+        # objects: the followed one (with its position) first, then those with the fewest free
+        # places near them, before the others take those
+        order = []
+        for k, s in enumerate(objects):
+            if not s.label:
+                continue
+            i = len(markers) + k
+            w, h = _text_size(s.label, s.label_text.textItem.font())
+            free = free_places((w * px_w, h * px_h), boxes[i], bounds, taken, boxes[:i] + boxes[i + 1:], gap)
+            order.append(("\n" not in s.label, free, s.object_id, s, i))
+        objects_first = [(s.label_text, i, False, shorter_texts(s.label, s.object_id)) for *_, s, i in sorted(order)]
+        plan, cut = _plan_labels(requests + objects_first, boxes, bounds, taken, gap, (px_w, px_h))
+        # some had to say less: again with those first (and those of the tries before), the
+        # best plan wins — the fewest left out, then the fewest shortened
+        score, first = _plan_score(plan, cut), []
+        for _ in range(LAYOUT_RETRIES):
+            if not cut:
+                break
+            first += [r for r in objects_first if r[0] in cut and r not in first]
+            again = first + [r for r in objects_first if r not in first]
+            plan_b, cut = _plan_labels(requests + again, boxes, bounds, taken, gap, (px_w, px_h))
+            if _plan_score(plan_b, cut) < score:
+                plan, score = plan_b, _plan_score(plan_b, cut)
+        for item, place in plan.items():
+            if place is None:  # no room near it, not even shortened: left out rather than over another
+                _set_visible(item, False)
+                continue
+            text, spot = place
+            if item.toPlainText() != text:
+                item.setText(text)
+            pos = item.pos()
+            if (pos.x(), pos.y()) != spot:
+                item.setPos(*spot)
+            _set_visible(item, True)
 
     def _place_probe(self) -> None:
         """The depth probe's text in the image's bottom-left corner, above the fps label,
