@@ -30,6 +30,7 @@ import shiboken6
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.calibration_worker import CalibrationController
+from app.estop_switches import EStopSwitches
 from app.hand_eye import HandEyeController
 from app.preferences import WindowPreferences
 from app.startup import GuiThreadGarbage, finish_splash, make_app
@@ -155,6 +156,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._fit_timer.setInterval(FIT_DELAY_MS)
         self._fit_timer.timeout.connect(self.fit_to_screen)
         self._build()
+        # the physical STOP / RE-ARM (--estop-switch / --rearm-switch): a missing device is shown
+        self.estop_switches = EStopSwitches.for_window(self)
+        if self.estop_switches.enabled:
+            self.statusBar().insertPermanentWidget(0, self.estop_switches.make_status_label())
         self.workers = WorkerSet(session, self)
         p = self.workers.perception
         p.sigResult.connect(self.on_result)
@@ -324,7 +329,7 @@ class MainWindow(QtWidgets.QMainWindow):
         robot_layout = QtWidgets.QVBoxLayout(robot_page)
         robot_layout.setContentsMargins(0, 0, 0, 0)
         robot_layout.addWidget(self.joints)
-        self.hand_eye_button = touch_button("Calibrate camera→robot…")
+        self.hand_eye_button = touch_button("Camera → arm calibration…")
         self.hand_eye_button.setToolTip("Where the cameras are in the robot's frame: the arm carries its tool "
                                         "marker through a sweep (or touch markers on the desk)")
         self.hand_eye_button.clicked.connect(self.on_open_hand_eye)
@@ -545,6 +550,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if app is not None:  # a modal dialog takes the focus when it opens
             app.focusWindowChanged.connect(self.check_modal_dialog)
             app.installEventFilter(self._jog_key_filter)  # jog keys, wherever the focus is in this window
+        self.estop_switches.start()  # installed last, so its filter sees the switch keys first
 
     def stop(self) -> None:
         app = QtWidgets.QApplication.instance()
@@ -564,6 +570,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.hand_eye is not None:
             self.hand_eye.close()
         self._stop_recording()
+        self.estop_switches.stop()  # its key filter goes, its device threads are joined
         self.workers.stop()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt override)
@@ -631,14 +638,18 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(str)
     def on_camera_error(self, message: str) -> None:
-        """A camera problem (banner, retrying) or, with "", the camera is back."""
-        self._camera_error = message or None
+        """A camera problem (banner, retrying), the end of a replay (banner, ▶ Play again; the
+        views keep the last frame) or, with "", the camera is back."""
+        ended = replay_end_text(self.session.camera) if message else ""
+        self._camera_error = None if ended else (message or None)
         for view in (self.view_left, self.view_right):  # the next frame clears it
-            view.set_placeholder(f"no frames — {message}" if message else "")
+            view.set_placeholder(f"no frames — {message}" if message and not ended else "")
+        if self.replay_bar is not None:
+            show_play_again(self.replay_bar, self.session.camera, bool(ended))
         if self.calibration_controller is not None:
-            self.calibration_controller.camera_problem(message)
+            self.calibration_controller.camera_problem(ended or message)
         if self.device_panel is not None:
-            if message:
+            if message and not ended:
                 self.device_panel.set_message("camera not delivering frames — the controls come back with it",
                                               warn=True)
             else:
@@ -1135,12 +1146,18 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot()
     def on_stop_requested(self) -> None:
-        """STOP (button, Esc, a dialog's STOP): stop, as many times as it is asked."""
+        """STOP (button, Esc, a dialog's STOP, a STOP switch): stop, as many times as it is asked."""
+        self.estop_switches.note_stop()  # a RE-ARM switch hold under way ends
         self.on_estop(True)
 
     @QtCore.Slot()
     def on_rearm_requested(self) -> None:
-        """RE-ARM held long enough: resume (only reachable while stopped)."""
+        """RE-ARM held long enough: resume (only reachable while stopped, and never while a
+        STOP switch is held down)."""
+        blocked = self.estop_switches.rearm_blocked()
+        if blocked:
+            self._show_note(blocked)  # "STOP switch gpio:17 is down — release it to re-arm"
+            return
         if not self.session.controller.armed:
             self.on_estop(False)
 
@@ -1195,6 +1212,8 @@ class MainWindow(QtWidgets.QMainWindow):
         elif s.controller.paused:
             self.banner.show_message(f"arm paused while {', '.join(sorted(s.controller.paused_by))} — "
                                      "it holds still until that closes", "warn")
+        elif replay_end_text(s.camera):  # the recording played to its end: no fault
+            self.banner.show_message(replay_end_text(s.camera), "info")
         elif self._health_message:
             self.banner.show_message(self._health_message, "warn")
         elif self._note:
@@ -2005,6 +2024,7 @@ def run_window(options: SessionOptions, size: tuple[int, int],
         window.move(free.topLeft())
         window.show()
     finish_splash(splash)
+    start_scene_now(session)
     window.start()
     if record is not None:  # --record [PATH]: recording from the start (● REC stops it)
         window.record_path = record or None
@@ -2012,22 +2032,70 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     return app.exec()
 
 
+def replay_end_text(camera) -> str:
+    """"replay finished (0:12) — …" when ``camera`` is a replay that played to its end, else ""."""
+    if getattr(camera, "kind", "") != "replay" or not getattr(camera, "finished", False):
+        return ""
+    whole_s = int(camera.duration_s)  # as the replay bar counts: "replay 0:12 / 0:12"
+    return f"replay finished ({whole_s // 60}:{whole_s % 60:02d}) — tap ▶ Play again or drag the seek bar"
+
+
+def show_play_again(replay_bar: QtWidgets.QWidget, camera, shown: bool) -> Optional[QtWidgets.QPushButton]:
+    """Show (``shown``) or hide the replay bar's ▶ Play again button, made on first use: a tap
+    plays ``camera`` (a replay) from its start. Returns the button (None before it was needed)."""
+    button = replay_bar.findChild(QtWidgets.QPushButton, "play_again")
+    if button is None:
+        if not shown:
+            return None
+        button = touch_button("▶ Play again")
+        button.setObjectName("play_again")
+        button.setToolTip("Play the recording again from its start")
+        # the camera, not the window, in the slot: a window held by its own button's slot is a cycle
+        button.clicked.connect(lambda *_: camera.seek(0.0))
+        replay_bar.layout().addWidget(button)
+    button.setVisible(shown)
+    return button
+
+
+def start_scene_now(session: DeskSession) -> None:
+    """Start the simulated desk's scenario (or the replayed recording) over, now that the window
+    is up: it began when the session opened the camera, and building the window takes a while —
+    on a slow machine the teleop scenario's first calibration corner (held from 1.5 s to 3.5 s)
+    was over before the first frame was looked at, and teleop waited for a corner that never came.
+    Call it before the workers start (nothing else reads the camera then)."""
+    if getattr(session.camera, "kind", "") in ("sim", "replay"):
+        session.camera.connect()  # both restart their timeline at the clock's now
+
+
 def take_screenshot(options: SessionOptions, path: str, after_s: float, size: tuple[int, int]) -> int:
-    """Run the window offscreen for ``after_s`` seconds of the scenario, save a PNG, exit."""
+    """Run the window offscreen for ``after_s`` seconds of the scenario and save a PNG of exactly
+    ``size`` (width, height) pixels, whatever window geometry the preferences hold (maximised,
+    another size) and whatever the offscreen screen's size; exit. The preferences are read (the
+    mode, the camera settings) but not written. 1 (and one line) when the PNG cannot be written."""
     app = make_app()
     session = DeskSession.create(options)
     window = MainWindow(session)
-    window.resize(*size)
+    window.preferences.read_only = True  # a screenshot's size is no window geometry to remember
+    window.setWindowState(QtCore.Qt.WindowState.WindowNoState)  # not maximised / full screen as saved
+    window.setFixedSize(*size)  # neither the screen (offscreen: 800x800) nor fit_to_screen resizes it
     window.show()
+    start_scene_now(session)
     window.start()
+    saved = []
 
     def grab() -> None:
         window.redraw()
-        window.grab().save(path)
+        saved.append(window.grab().save(path, "PNG"))
         window.stop()
         app.quit()
 
     QtCore.QTimer.singleShot(int(after_s * 1000), grab)
     app.exec()
+    if not (saved and saved[0]):
+        import sys
+
+        print(f"deskarm: could not write the screenshot to {path} — check that its folder exists and is "
+              "writable", file=sys.stderr)
+        return 1
     print(f"deskarm: screenshot saved to {path} ({size[0]}x{size[1]}, after {after_s:g} s)")
     return 0

@@ -77,7 +77,7 @@ def test_stop_is_a_tap_target_and_rearm_only_shows_while_stopped(small):
     assert not small.rearm_button.isVisible()
     small.on_stop_requested()
     assert small.rearm_button.isVisible() and small.rearm_button.height() >= TOUCH_PX
-    assert "Hold RE-ARM" in small.banner.text()
+    assert "hold RE-ARM" in small.banner.text()
     small._goal = Goal(seq=1, t=0.0, base_p_target=(0.0, 0.15, 0.1), mode=TargetMode.MANUAL)
     small._dirty = True
     small.redraw()
