@@ -53,7 +53,7 @@ from core.devices.bridge import parse_bridge_url
 from core.motion.scanning import MAX_PERIOD_S, MIN_PERIOD_S, OneSwitchScanner, TouchSelector, TwoSwitchScanner
 from widgets._style import BUTTON_STYLE, SPIN_STYLE, TOUCH_PX
 from widgets.assist_view import MOUSE_NAMES, AssistView, SwitchSafeButton
-from widgets.estop import EStopButton, RearmButton, StopDialog
+from widgets.estop import EStopButton, RearmButton, StopDialog, StopGuard
 
 ASSIST_SETTINGS_FILE = "assist.toml"
 MODES = ("touch", "scan2", "scan1")
@@ -570,8 +570,12 @@ class SwitchSettingsDialog(StopDialog):
     def __init__(self, settings: AssistSettings, parent=None):
         super().__init__(parent)
         self.setWindowTitle("Switches")
+        self.setModal(False)  # the window's STOP stays live beside it
         self.settings = settings
         form = QtWidgets.QFormLayout(self)
+        self.stop_button = EStopButton()  # its own STOP, as every dialog of deskarm; Esc is STOP too
+        self.stop_button.sigStopRequested.connect(self.request_stop)
+        form.addRow("Esc or STOP stops the arm", self.stop_button)
         self.edits = {}
         for role, label in (("next_switch", "2 switches: next"), ("confirm_switch", "2 switches: confirm"),
                             ("single_switch", "1 switch")):
@@ -666,6 +670,7 @@ class AssistWindow(QtWidgets.QMainWindow):
         self._pending_release: Optional[dict] = None
         self.switch_sources: dict = {}  # device switch name → core.devices.switches.SwitchSource (running)
         self.switch_messages: list[str] = []  # what the device switches say is wrong (shown in the hint)
+        self.settings_dialog: Optional[SwitchSettingsDialog] = None  # "Switches…" while open
         self._cue = None  # the sound cue, made when the first one is wanted
         self.sigDeviceSwitch.connect(self._on_device_switch, QtCore.Qt.ConnectionType.QueuedConnection)
         self._build()
@@ -714,6 +719,12 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.menu_button.sigSwitchPressed.connect(self.switch_down)
         self.menu_button.sigSwitchReleased.connect(self.switch_up)
         top.addWidget(self.menu_button)
+        # RE-ARM (only while stopped) at the left, next to ☰, never where STOP is: pressing STOP
+        # again "to make sure" lands on STOP
+        self.rearm_button = RearmButton()
+        self.rearm_button.hide()
+        self.rearm_button.sigHeld.connect(self.rearm)
+        top.addWidget(self.rearm_button)
         self.state_label = QtWidgets.QLabel("")
         font = self.state_label.font()
         font.setPointSize(22)
@@ -723,14 +734,15 @@ class AssistWindow(QtWidgets.QMainWindow):
         self.state_label.setMinimumWidth(200)
         self.state_label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Preferred)
         top.addWidget(self.state_label, 1)
-        self.rearm_button = RearmButton()
-        self.rearm_button.hide()
-        self.rearm_button.sigHeld.connect(self.rearm)
-        top.addWidget(self.rearm_button)
         self.stop_button = EStopButton()
+        self.stop_button.setFixedSize(self.stop_button.sizeHint().expandedTo(QtCore.QSize(150, TOUCH_PX + 8)))
         self.stop_button.sigStopRequested.connect(self.emergency_stop)
         top.addWidget(self.stop_button)
         outer.addLayout(top)
+        # a press on STOP's area stops over any dialog or popup, Esc stops in every window (and
+        # closes the menu), dialogs are kept off STOP, the keys come back after a dialog
+        self.stop_guard = StopGuard(self.stop_button, self)
+        self.stop_guard.sigStopRequested.connect(self.stop_from_anywhere)
         middle = QtWidgets.QHBoxLayout()
         self.view = AssistView()
         self.view.sigPressed.connect(self._on_view_pressed)
@@ -851,6 +863,7 @@ class AssistWindow(QtWidgets.QMainWindow):
     def stop(self) -> None:
         """Stop the scan timer, the switch sources and the worker (all joined)."""
         self._scan_timer.stop()
+        self.stop_guard.remove()
         self._stop_switch_sources()
         if self._cue is not None:
             self._cue.close()
@@ -933,11 +946,26 @@ class AssistWindow(QtWidgets.QMainWindow):
         if self.worker.isRunning():
             self._start_switch_sources()
 
-    def open_settings(self) -> None:
-        dialog = SwitchSettingsDialog(self.settings, self)
+    def open_settings(self) -> "SwitchSettingsDialog":
+        """"Switches…": not modal (the window's STOP stays live beside it, kept uncovered), with
+        its own STOP; Esc is STOP; OK applies the settings."""
+        dialog = self.settings_dialog
+        if dialog is not None and dialog.isVisible():
+            dialog.raise_()
+            return dialog
+        dialog = self.settings_dialog = SwitchSettingsDialog(self.settings, self)
+        dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
         dialog.sigStopRequested.connect(self.emergency_stop)
-        if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
-            self.set_settings(dialog.settings)
+        dialog.accepted.connect(lambda: self.set_settings(dialog.settings))
+        dialog.show()
+        dialog.raise_()
+        dialog.activateWindow()
+        return dialog
+
+    def stop_from_anywhere(self) -> None:
+        """STOP's area pressed or Esc typed, whatever is open: the menu closes and the arm stops."""
+        self.close_menu()
+        self.emergency_stop()
 
     def add_warning(self, text: str) -> None:
         """A settings problem the user should see (shown under the hint)."""

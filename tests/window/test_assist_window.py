@@ -347,3 +347,60 @@ def test_the_learned_desk_model_finds_the_buttons_and_7_is_pressed(qtbot):
     finally:
         w.stop()
     assert w.worker.isFinished()
+
+
+# --- issue 22: STOP in the assistive view keeps one place, RE-ARM stays away, dialogs never cover it
+def _rect_in(w, widget) -> QtCore.QRect:
+    return QtCore.QRect(widget.mapTo(w, QtCore.QPoint(0, 0)), widget.size())
+
+
+def _press_at(w, point):
+    from PySide6.QtTest import QTest
+
+    QTest.mousePress(w.windowHandle(), LEFT, QtCore.Qt.KeyboardModifier.NoModifier, point)
+    QTest.mouseRelease(w.windowHandle(), LEFT, QtCore.Qt.KeyboardModifier.NoModifier, point)
+
+
+@pytest.mark.parametrize("mode", ["touch", "scan2", "scan1"])
+def test_stop_keeps_its_place_and_rearm_appears_far_from_it(make_window, qtbot, mode):
+    w, _, texts = make_window(mode)
+    stop = _rect_in(w, w.stop_button)
+    _press_at(w, stop.center())
+    qtbot.waitUntil(lambda: w.engaged)
+    QtCore.QCoreApplication.processEvents()
+    assert _rect_in(w, w.stop_button) == stop
+    rearm = _rect_in(w, w.rearm_button)
+    assert w.rearm_button.isVisible() and not rearm.intersects(stop.adjusted(-40, -40, 40, 40)), (rearm, stop)
+    # pressing STOP's spot again, and holding it, reaches STOP, never RE-ARM
+    from PySide6.QtTest import QTest
+
+    QTest.mousePress(w.windowHandle(), LEFT, QtCore.Qt.KeyboardModifier.NoModifier, stop.center())
+    assert not w.rearm_button.isDown() and not w.rearm_button.holding
+    QTest.mouseRelease(w.windowHandle(), LEFT, QtCore.Qt.KeyboardModifier.NoModifier, stop.center())
+    assert w.engaged
+
+
+def test_the_switches_dialog_carries_stop_leaves_the_window_stop_uncovered_and_live(make_window, qtbot):
+    from PySide6 import QtWidgets
+    from PySide6.QtTest import QTest
+
+    w, _, _ = make_window("scan2")
+    qtbot.mouseClick(w.settings_button, LEFT)
+    dialog = w.settings_dialog
+    qtbot.waitUntil(lambda: dialog is not None and dialog.isVisible())
+    assert QtWidgets.QApplication.activeModalWidget() is None  # not modal: the window's STOP works
+    stop_global = QtCore.QRect(w.stop_button.mapToGlobal(QtCore.QPoint(0, 0)), w.stop_button.size())
+    assert not dialog.frameGeometry().intersects(stop_global), (dialog.frameGeometry(), stop_global)
+    _press_at(w, _rect_in(w, w.stop_button).center())
+    qtbot.waitUntil(lambda: w.engaged)
+    w.rearm()
+    assert not w.engaged
+    qtbot.mouseClick(dialog.stop_button, LEFT)  # its own STOP
+    assert w.engaged
+    w.rearm()
+    QTest.keyClick(dialog.edits["next_switch"], QtCore.Qt.Key.Key_Escape)  # Esc = STOP, not Cancel
+    assert w.engaged and dialog.isVisible()
+    dialog.edits["next_switch"].setText("key:N, mouse:right")
+    ok = dialog.findChild(QtWidgets.QDialogButtonBox).button(QtWidgets.QDialogButtonBox.StandardButton.Ok)
+    qtbot.mouseClick(ok, LEFT)
+    qtbot.waitUntil(lambda: w.settings.next_switch == ("key:N", "mouse:right"))
