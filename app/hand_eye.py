@@ -1,4 +1,4 @@
-"""The window's camera→robot calibration: the hand-eye wizard, driven by live perception results.
+"""The window's camera → arm calibration: the hand-eye wizard, driven by live perception results.
 
 ``HandEyeController`` opens ``widgets.hand_eye_wizard.HandEyeWizard`` and runs one of the
 methods of ``core.handeye`` on the frames the window already receives:
@@ -9,7 +9,7 @@ methods of ``core.handeye`` on the frames the window already receives:
   centre is sampled while the arm holds still.
 - **touch points** / **planar** — the user jogs the tool tip onto markers lying on the desk (the
   wizard goes back to a normal window so the Target tab is usable) and taps *Record this
-  point*; the marker nearest to the tool (in the current camera→robot estimate) is paired with
+  point*; the marker nearest to the tool (in the current camera → arm estimate) is paired with
   the tool point. Touch points solve the rigid transform; planar maps the left image's pixels
   to the desk.
 
@@ -29,7 +29,7 @@ from core.handeye.storage import save_hand_eye, save_planar
 from core.handeye.sweep import HandEyeSweep
 from core.messages import TargetMode
 
-TOUCH_POINTS_NEEDED = 4  # K >= 4 markers for the touch-point and planar methods
+TOUCH_POINTS_NEEDED = 4  # markers the touch-point and planar methods need at least
 LIVE_EVERY = 2  # show every 2nd frame in the wizard's live view
 
 
@@ -111,9 +111,7 @@ class HandEyeController(QtCore.QObject):
             self.window.target_panel.set_mode(TargetMode.MANUAL.value)
         else:
             self.sweep = None
-            self.wizard.set_points_recorded(0, TOUCH_POINTS_NEEDED)
-            self.wizard.set_progress(0.0, "jog the tool tip onto a marker lying on the desk (Target tab), "
-                                          "then tap Record this point")
+            self.wizard.set_points_recorded(0, TOUCH_POINTS_NEEDED)  # the phase line says what to do
             self.wizard.showNormal()  # the Target tab must be reachable to jog
         self.method = method
 
@@ -154,9 +152,9 @@ class HandEyeController(QtCore.QObject):
         step = self.sweep.step(self.session.clock.now(), camera_p, q)
         if step.goal_base_p is not None:
             self.session.targeter.set_manual_target(step.goal_base_p)
-        self.wizard.set_progress(step.progress, step.message)
+        self.wizard.set_progress(step.progress, step.message)  # which pose: "settling at pose 3 of 12"
         if step.phase != "done":
-            self.wizard.set_phase(step.phase, step.message)
+            self.wizard.set_phase(step.phase)  # what that means, in the phase's own words
             return
         res = self.sweep.result(self.session.camera.pair_id)
         self._finish()
@@ -185,8 +183,8 @@ class HandEyeController(QtCore.QObject):
         self.records.append((np.asarray(nearest.camera_p_centre, float), pixel, tool))
         n = len(self.records)
         self.wizard.set_points_recorded(n, TOUCH_POINTS_NEEDED)
-        self.wizard.set_progress(min(1.0, n / TOUCH_POINTS_NEEDED), f"recorded marker {nearest.marker_id} "
-                                 f"at the tool ({n} of {TOUCH_POINTS_NEEDED}); jog to the next one")
+        # the count is on the points line, what to do next on the phase line
+        self.wizard.set_progress(min(1.0, n / TOUCH_POINTS_NEEDED), f"marker {nearest.marker_id} recorded")
         if n < TOUCH_POINTS_NEEDED:
             return
         cam, px, tools = (np.array([rec[k] for rec in self.records]) for k in range(3))

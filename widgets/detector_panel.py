@@ -1,5 +1,10 @@
 """The Objects tab: which marker-less object detectors run, and their settings, changed live.
 
+ArUco markers are found by the marker perception on every frame whatever runs here: the tab
+says so at the top, and the "aruco" detector's toggle reads "markers as objects" — what it adds
+is the markers in the objects' list too, not marker detection (an "aruco" toggle left off while
+the views outline markers read as "markers are off").
+
 Detectors are switched on and off with finger-sized toggles (every name the detector registry
 knows, plus a user's ONNX model chosen with a file dialog). One detector's settings are shown at
 a time ("Settings of"): the HSV detector's named colours (add, rename, remove, pick from a camera
@@ -44,6 +49,8 @@ HSV, CIRCLES, ARUCO = "hsv", "circles", "aruco"
 TOGGLE_COLUMNS = 3
 ONNX_TEXT_CHARS = 10  # a model file's toggle shows this much of its name (the tooltip has the path)
 LEARNED_DEFAULTS = {"score_threshold": 0.25, "nms_iou": 0.45}  # OnnxYoloParams' defaults
+MARKERS_ON_TEXT = "✓ ArUco markers: on, in every frame (Markers tab)"
+TOGGLE_TEXTS = {ARUCO: "markers as objects"}  # a detector's toggle when its name would mislead
 
 
 @dataclass(frozen=True)
@@ -177,13 +184,23 @@ class DetectorPanel(QtWidgets.QWidget):
         layout.setContentsMargins(4, 4, 4, 4)
         layout.setSpacing(4)
 
+        # markers: always on (the marker perception), whatever the toggles below say
+        self.markers_label = QtWidgets.QLabel(MARKERS_ON_TEXT)
+        self.markers_label.setWordWrap(True)
+        self.markers_label.setStyleSheet(f"QLabel {{ color: {OK_COLOUR}; font-weight: bold; }}")
+        self.markers_label.setToolTip("The marker perception finds the ArUco markers in both views on every "
+                                      "frame; the Target tab follows them and the Markers tab lists them")
+        layout.addWidget(self.markers_label)
+
         # --- detector toggles (first: what the user comes here for)
         toggles = QtWidgets.QGridLayout()
         toggles.setSpacing(2)
         self.toggles: dict[str, QtWidgets.QPushButton] = {}
         for index, name in enumerate(self._plain):
-            button = touch_button(name, checkable=True)
-            button.setToolTip(f"run the {name} detector on both camera views")
+            button = touch_button(TOGGLE_TEXTS.get(name, name), checkable=True)
+            button.setToolTip(f"run the {name} detector on both camera views" if name != ARUCO else
+                              "list the ArUco markers among the objects too (Object mode can follow them); "
+                              "the markers are found either way")
             button.toggled.connect(lambda on, n=name: self._on_toggle(n, on))
             toggles.addWidget(button, index // TOGGLE_COLUMNS, index % TOGGLE_COLUMNS)
             self.toggles[name] = button

@@ -1,4 +1,4 @@
-"""The hand-eye (camera → robot, eye-to-hand) calibration wizard: method → run → result.
+"""The camera → arm calibration wizard (hand-eye, eye-to-hand): method → run → result.
 
 A view only: it owns no thread and no calibration logic. The app starts the procedure when
 ``sigStartRequested`` arrives, feeds the run page (``show_live``, ``set_progress``,
@@ -6,11 +6,11 @@ A view only: it owns no thread and no calibration logic. The app starts the proc
 widget turns taps into requests. Three pages:
 
 1. Method — automatic sweep (the arm visits N poses with a marker on its tool), touch points
-   (the user jogs the tool onto K ≥ 4 desk markers and records each), planar map (one camera
+   (the user jogs the tool onto 4 or more desk markers and records each), planar map (one camera
    looking down at the desk).
-2. Run — the live camera view with the detected markers, progress and step, the phase
-   (moving / settling / sampling / skipped pose), Cancel, and for touch points "Record this
-   point" with the count so far.
+2. Run — the live camera view with the detected markers, the phase in plain words (moving /
+   settling / sampling / skipped pose), the step (which pose) under it — never the same line
+   twice —, progress, Cancel, and for touch points "Record this point" with the count so far.
 3. Result — the verdict in one line (green when calibrated, red with the fix when not), the
    per-pose residuals as bars (the worst red, rejected grey), the warnings, Save and use, Run
    again.
@@ -55,12 +55,14 @@ from widgets.estop import StopDialog
 from widgets.help_dialog import EStopStrip
 
 PAGES = ("method", "run", "result")
+NAME = "Camera → arm calibration"  # what the window's button, this dialog and its messages call it
 PAGE_TITLES = ("Camera → arm · 1 Method", "Camera → arm · 2 Run", "Camera → arm · 3 Result")
+MIN_TOUCH_POINTS = 4  # markers the touch-point and planar methods need at least
 # the methods, as sigStartRequested names them, with their two-line button texts
 METHODS = ("sweep", "touch_points", "planar")
 METHOD_TEXTS = {
     "sweep": "Automatic sweep\narm moves, tool marker on the tool",
-    "touch_points": "Touch points\njog the tool onto K ≥ 4 markers on the desk",
+    "touch_points": f"Touch points\njog the tool tip onto {MIN_TOUCH_POINTS} or more markers on the desk",
     "planar": "Planar map\none camera looking down",
 }
 METHOD_NAMES = {"sweep": "Automatic sweep", "touch_points": "Touch points", "planar": "Planar map"}
@@ -82,7 +84,6 @@ METHOD_FIX = {
 }
 N_POSES_RANGE = (4, 40)
 N_POSES_DEFAULT = 12
-MIN_TOUCH_POINTS = 4
 LIVE_REDRAW_MS = 15
 CHOICE_PX = 64  # the method buttons: two lines of text, big targets
 CHOICE_STYLE = f"""
@@ -100,6 +101,7 @@ QPushButton {{
 QPushButton:pressed {{ background: #1b5e20; }}
 QPushButton:disabled {{ background: #bdbdbd; color: #6d6d6d; border: 2px solid #9e9e9e; }}
 """
+TOUCH_WAITING_TEXT = "jog the tool tip onto the centre of a desk marker (Target tab), then tap Record this point"
 # phase → (colour level, default text)
 PHASES = {
     "moving": ("info", "moving to the next pose …"),
@@ -192,7 +194,7 @@ def verdict_text(result) -> tuple[str, str]:
 
 
 class HandEyeWizard(StopDialog):
-    """The camera → robot calibration wizard (see the module docstring); a view the app drives.
+    """The camera → arm calibration wizard (see the module docstring); a view the app drives.
 
     Signals (all emitted from the GUI thread):
         sigStartRequested(str method, int n_poses): Start (or Run again) was tapped; ``method``
@@ -220,7 +222,7 @@ class HandEyeWizard(StopDialog):
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
-        self.setWindowTitle("Calibrate camera → arm (hand-eye)")
+        self.setWindowTitle(NAME)
         self.setModal(False)
         self.result = None  # the result shown on the result page
         self.verdict_level = ""  # "ok", "warn" or "error" once a result is shown
@@ -348,7 +350,8 @@ class HandEyeWizard(StopDialog):
         self.tool_marker_label.setWordWrap(True)
         sweep_layout.addWidget(self.tool_marker_label)
         grid.addWidget(sweep_box, 0, 1)
-        touch_note = QtWidgets.QLabel(f"records ≥ {MIN_TOUCH_POINTS} points,\nthe arm moves only when you jog it")
+        touch_note = QtWidgets.QLabel(f"records {MIN_TOUCH_POINTS} points or more,\n"
+                                      "the arm moves only when you jog it")
         planar_note = QtWidgets.QLabel("the arm does not move;\nfor a camera above the desk")
         for row, note in ((1, touch_note), (2, planar_note)):
             note.setStyleSheet("QLabel { color: #555; }")
@@ -475,10 +478,11 @@ class HandEyeWizard(StopDialog):
         touch = method == "touch_points"
         self.points_label.setVisible(touch)
         self.record_button.setVisible(touch)
-        self.set_progress(0.0, f"{METHOD_NAMES.get(method, method)}: starting …")
-        if touch:
-            self.set_phase("waiting", "jog the tool tip onto the centre of a desk marker, then Record")
+        if touch:  # the phase line says what to do; no step line repeats it
+            self.set_progress(0.0, "")
+            self.set_phase("waiting", TOUCH_WAITING_TEXT)
         else:
+            self.set_progress(0.0, f"{METHOD_NAMES.get(method, method)}: starting …")
             self.set_phase("waiting")
         if touch:
             self.set_points_recorded(0, MIN_TOUCH_POINTS)
@@ -530,10 +534,16 @@ class HandEyeWizard(StopDialog):
         f = _finite(fraction)
         self.progress_bar.setValue(int(round(1000 * min(1.0, max(0.0, f if f is not None else 0.0)))))
         self.step_label.setText(str(text))
+        self._show_step()
 
     def progress_text(self) -> str:
-        """The step text shown under the phase."""
+        """The step text last set (shown under the phase unless it is empty or the same line)."""
         return self.step_label.text()
+
+    def _show_step(self) -> None:
+        """The step line shows only what the phase line does not say already."""
+        text = self.step_label.text()
+        self.step_label.setVisible(bool(text) and text != self.phase_text())
 
     @QtCore.Slot(str, str)
     def set_phase(self, phase: str, text: str = "") -> None:
@@ -546,6 +556,7 @@ class HandEyeWizard(StopDialog):
         self.phase_label.setText(text)
         self.phase_label.setStyleSheet(_status_style(level))
         self.phase_label.setVisible(bool(text))
+        self._show_step()
 
     def phase_text(self) -> str:
         """The phase line as shown ("" when hidden)."""
@@ -559,7 +570,7 @@ class HandEyeWizard(StopDialog):
             self.points_label.setText(f"{n} points recorded ✓ (≥ {needed})")
             self.points_label.setStyleSheet(f"QLabel {{ color: {OK_COLOUR}; }}")
         else:
-            self.points_label.setText(f"{n} of {needed} points recorded — jog the tool onto the next marker")
+            self.points_label.setText(f"{n} of {needed} points recorded")
             self.points_label.setStyleSheet("")
 
     # ---------------------------------------------------------------------------- page 3: result

@@ -30,6 +30,9 @@ AXIS_NAMES = ("x", "y", "z")
 AXIS_KEYS = ("← →", "↓ ↑", "PgDn PgUp")  # the keys that jog each axis, shown beside it
 KEY_HINT_CARTESIAN = "Keys: ← → x · ↓ ↑ y · PgDn PgUp z · [ ] step · J joints"
 KEY_HINT_JOINT = "Keys: 1–9 joint · ← → or ↓ ↑ move it · [ ] step · J x/y/z"
+# which angles the joint rows show: the arm model's joint angles, which a servo arm's Robot tab
+# (servo angles) shows shifted by each servo's mounting offset
+JOINT_CAPTION = "Joint angles, 0° = joint straight (the Robot tab shows servo angles)"
 Key = QtCore.Qt.Key
 
 
@@ -146,6 +149,10 @@ class JogPanel(QtWidgets.QWidget):
         self.value_labels: list[QtWidgets.QLabel] = []
         self._joint_names: list[str] = []
 
+        self.joint_caption = QtWidgets.QLabel(JOINT_CAPTION)
+        self.joint_caption.setWordWrap(True)
+        self.joint_caption.hide()  # joint space only
+        layout.addWidget(self.joint_caption)
         self.readout = QtWidgets.QLabel("")
         self.readout.setWordWrap(True)
         layout.addWidget(self.readout)
@@ -165,6 +172,12 @@ class JogPanel(QtWidgets.QWidget):
         """The arm's joint names (the joint rows)."""
         self._joint_names = [str(n) for n in names]
         self._rebuild_rows()
+
+    def set_joint_caption(self, text: str) -> None:
+        """Say which angles the joint rows show (default: the model's joint angles, not servo
+        angles); "" hides the caption."""
+        self.joint_caption.setText(text)
+        self.joint_caption.setVisible(bool(text) and self.space == JOINT)
 
     def set_step_labels(self, cartesian: Sequence[str], joint: Sequence[str]) -> None:
         """The step sizes' labels in each space, e.g. ["1 mm", "5 mm", "20 mm"], ["1°", "5°", "15°"]."""
@@ -212,6 +225,7 @@ class JogPanel(QtWidgets.QWidget):
         for b, text in zip(self.step_buttons, labels):
             b.setText(text)
         self.hint.setText(KEY_HINT_CARTESIAN if self.space == CARTESIAN else KEY_HINT_JOINT)
+        self.joint_caption.setVisible(self.space == JOINT and bool(self.joint_caption.text()))
 
     # --- state shown ---------------------------------------------------------------------------
     def set_space(self, space: str) -> None:

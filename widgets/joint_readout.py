@@ -13,6 +13,11 @@ AT_LIMIT_FRACTION = 0.02  # within 2 %: red (the safety clamp is about to bite)
 LEVEL_COLOURS = {"ok": OK_COLOUR, "near": WARN_COLOUR, "at": ERROR_COLOUR}
 HEADERS_DEG = ("joint", "cmd °", "meas °", "limits °", "")
 HEADERS_MIXED = ("joint", "cmd", "meas", "limits", "")  # units per row, in the limits column
+# what the numbers are: a servo arm's table shows servo angles while the Jog tab shows the joint
+# angles of the arm's model (the elbow's −118.3° there is its servo's 61.7° here)
+SERVO_CAPTION = ("Servo angles, as sent to the board. The Jog tab shows joint angles (0° = joint "
+                 "straight): the two differ by each servo's mounting offset.")
+JOINT_CAPTION = "Joint values, as on the Jog tab (0° = joint straight)."
 
 
 def limit_level(value_deg: Optional[float], min_deg: float, max_deg: float) -> str:
@@ -84,7 +89,8 @@ class JointReadout(QtWidgets.QWidget):
     """Per joint: name, commanded and measured servo angles (deg), limits and a limit bar.
 
     The bar shows the range with the measured angle as a block and the commanded one as a
-    tick; it turns orange within 10 % of a limit and red within 2 %.
+    tick; it turns orange within 10 % of a limit and red within 2 %. A caption above says which
+    angles these are (servo angles, not the Jog tab's joint angles).
 
     Signals: none (display only).
     """
@@ -93,6 +99,10 @@ class JointReadout(QtWidgets.QWidget):
         super().__init__(parent)
         outer = QtWidgets.QVBoxLayout(self)
         outer.setContentsMargins(0, 0, 0, 0)
+        self.caption = QtWidgets.QLabel(SERVO_CAPTION)
+        self.caption.setWordWrap(True)
+        self.caption.setContentsMargins(4, 2, 4, 0)
+        outer.addWidget(self.caption)
         self._grid = QtWidgets.QGridLayout()
         outer.addLayout(self._grid)
         outer.addStretch(1)
@@ -120,7 +130,8 @@ class JointReadout(QtWidgets.QWidget):
 
         ``units`` names each joint's display unit when they are not all degrees (e.g. the
         UMI-RTX's column in "mm": ``JointSpec.display_unit``); the values and limits are then
-        in those units and each row's limits say their unit.
+        in those units and each row's limits say their unit. Without ``units`` the values are
+        servo angles (a servo arm), with them the joints' own values, and the caption says so.
         """
         if not len(names) == len(min_deg) == len(max_deg):
             raise ValueError(f"set_joints: {len(names)} names, {len(min_deg)} minima and "
@@ -129,6 +140,7 @@ class JointReadout(QtWidgets.QWidget):
             raise ValueError(f"set_joints: {len(units)} units for {len(names)} joints;"
                              " expected one unit per joint")
         mixed = units is not None and any(u not in ("deg", "°") for u in units)
+        self.caption.setText(SERVO_CAPTION if units is None else JOINT_CAPTION)
         for header, text in zip(self._headers, HEADERS_MIXED if mixed else HEADERS_DEG):
             header.setText(text)
         for widgets in self._rows:
@@ -179,6 +191,10 @@ class JointReadout(QtWidgets.QWidget):
             if (bar.commanded, bar.measured, bar.level) != (c, m, level):
                 bar.commanded, bar.measured, bar.level = c, m, level
                 bar.update()
+
+    def row_texts(self, row: int) -> tuple[str, str, str, str]:
+        """(name, commanded, measured, limits) as shown in joint ``row``."""
+        return tuple(label.text() for label in self._rows[row])  # type: ignore[return-value]
 
     def levels(self) -> list[str]:
         """Per joint: "ok", "near" or "at" a limit (worst of commanded and measured)."""
