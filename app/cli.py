@@ -33,7 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="markers file: dictionary, ids, names, what each does (see resources/markers.example.toml; "
                         "default: markers.toml in the config folder)")
     p.add_argument("--hand-eye", default=None, metavar="FILE",
-                   help="camera→robot calibration TOML (default: the saved one, when it is for these cameras)")
+                   help="camera→arm calibration TOML (default: the saved one, when it is for these cameras)")
     p.add_argument("--rig-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
                    help="simulated desk: the rig is mounted this far off its nominal pose (m, degrees)")
     p.add_argument("--sim-skew-ms", type=float, default=0.0, metavar="N",

@@ -234,11 +234,11 @@ def report_of(result, session) -> dict:
 def human_summary(report: dict) -> str:
     lines = []
     if report["ok"]:
-        lines.append(f"camera→robot calibrated from {report['poses_used']} poses: "
+        lines.append(f"camera→arm calibrated from {report['poses_used']} poses: "
                      f"{report['residual_mm_rms']} mm RMS (max {report['residual_mm_max']} mm)")
         lines.append(f"saved to {report['out']}")
     else:
-        lines.append(f"camera→robot NOT calibrated: {report['problem']} (nothing saved)")
+        lines.append(f"camera→arm NOT calibrated: {report['problem']} (nothing saved)")
     if "translation_error_mm" in report:
         lines.append(f"vs the simulated rig's true mount: {report['translation_error_mm']} mm, "
                      f"{report['rotation_error_deg']}°")

@@ -41,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenario", default="static", help=f"simulated desk scenario: {', '.join(SCENARIOS)}")
     p.add_argument("--calibration", default=None, help="stereo calibration YAML (default: the last saved one)")
     p.add_argument("--markers", default=None, metavar="FILE", help="markers file (default: the config folder's)")
-    p.add_argument("--hand-eye", default=None, metavar="FILE", help="camera→robot calibration TOML")
+    p.add_argument("--hand-eye", default=None, metavar="FILE", help="camera→arm calibration TOML")
     p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default: 30)")
     p.add_argument("--listen", action="append", default=None, metavar="ENDPOINT",
                    help=f"Zenoh endpoint to listen on (default for the server: tcp/0.0.0.0:{DEFAULT_PORT}; repeatable)")

@@ -622,7 +622,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.calibration_controller is not None:
             self.calibration_controller.feed(result.frame)  # newest only; ignored while closed
         if self.hand_eye is not None:
-            self.hand_eye.on_result(result)  # the camera→robot sweep steps with each frame
+            self.hand_eye.on_result(result)  # the camera→arm sweep steps with each frame
         if self.pick_place is not None:
             self._step_pick_place()
         if self.recorder is not None:  # queue puts: the recorder's own thread encodes and writes
@@ -984,7 +984,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot()
     def on_open_hand_eye(self):
-        """Robot tab → Calibrate camera→robot…: the hand-eye wizard (its own STOP)."""
+        """Robot tab → Calibrate camera→arm…: the hand-eye wizard (its own STOP)."""
         if self.hand_eye is None:
             self.hand_eye = HandEyeController(self)
             self.hand_eye.sigStopRequested.connect(self.on_stop_requested)
@@ -994,7 +994,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @QtCore.Slot(object, str)
     def on_hand_eye_in_use(self, result, path: str) -> None:
-        self._show_note(f"camera→robot calibration in use ({result.rms_mm:.1f} mm RMS) — saved to {path}")
+        self._show_note(f"camera→arm calibration in use ({result.rms_mm:.1f} mm RMS) — saved to {path}")
         self._refresh_status()
         self._mark_dirty()
 

@@ -12,7 +12,7 @@ counts the losses (``bridge_disconnects``) and the time without a link (``discon
 Per-frame samples are kept in bounded reservoirs, so a soak of any length has a flat memory.
 
 With ``--record [PATH]`` the run is recorded (``core.record.Recorder``: a rosbag2 folder, MCAP):
-every frame, perception result, command, joint state, e-stop change and camera→robot change is
+every frame, perception result, command, joint state, e-stop change and camera→arm change is
 handed to the recorder's thread without waiting; a failing disk stops the recording, not the run.
 """
 from __future__ import annotations
@@ -118,7 +118,7 @@ class RunMetrics:
     error_3d_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 3))  # vs ground truth (mm)
     reach_error_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 4))  # tip vs aim (mm)
     # tip vs where it should point by the ground truth (simulated desk): unlike the aim, this sees a
-    # wrong camera→robot transform (the aim is computed through it)
+    # wrong camera→arm transform (the aim is computed through it)
     reach_error_true_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 5))
     recent_perception_ms: deque = field(default_factory=lambda: deque(maxlen=RECENT_PERCEPTION), repr=False)
     recent_error_3d_mm: deque = field(default_factory=lambda: deque(maxlen=RECENT_ERROR_3D), repr=False)

@@ -53,7 +53,7 @@ class SessionOptions:
     event_driven: bool = True  # control step at once on a new goal (False: only on the 50 Hz tick)
     # simulated desk only: the rig mounted off its nominal pose (dx, dy, dz m, roll, pitch, yaw rad)
     rig_offset: Optional[tuple[float, float, float, float, float, float]] = None
-    hand_eye: Optional[str] = None  # camera→robot TOML; default: the saved one when it is for this pair
+    hand_eye: Optional[str] = None  # camera→arm TOML; default: the saved one when it is for this pair
     markers: Optional[str] = None  # markers TOML (dictionary, ids, names, actions); default: the config folder's
     # a desk served by `deskarm serve` on another machine (Zenoh endpoint, e.g. tcp/192.168.1.20:7447):
     # its cameras and arm replace --camera and --bridge
@@ -146,7 +146,7 @@ class DeskSession:
     bridge: MotorBridge
     banners: list[str] = field(default_factory=list)
     ball_finder: BallFinder = field(default_factory=BallFinder)
-    hand_eye: Optional[HandEyeResult] = None  # the camera→robot calibration in use (None: nominal/exact)
+    hand_eye: Optional[HandEyeResult] = None  # the camera→arm calibration in use (None: nominal/exact)
     camera_to_robot: str = ""  # status-bar text, see camera_to_robot_state()
     tool_marker: Optional[ToolMarker] = None  # the marker the arm carries (hand-eye sweep)
     markers: Optional[MarkersConfig] = None  # the markers the user configured (names, actions)
@@ -202,7 +202,7 @@ class DeskSession:
                 banners.append(f"simulated tool marker not drawn: {exc}")
         if options.remote and not options.hand_eye:  # the server's /tf_static (its own hand-eye)
             base_T_camera, hand_eye, state, note = (camera.base_T_camera(), None,
-                                                    f"camera→robot: as served by {options.remote}", "")
+                                                    f"camera→arm: as served by {options.remote}", "")
         else:
             base_T_camera, hand_eye, state, note = resolve_base_T_camera(camera, options.hand_eye)
         if note:
@@ -242,18 +242,18 @@ class DeskSession:
                    markers=markers, object_perception=object_perception)
 
     def use_hand_eye(self, result: HandEyeResult, path=None) -> None:
-        """A camera→robot calibration saved from the window: perception maps to robot_base with
+        """A camera→arm calibration saved from the window: perception maps to robot_base with
         it from the next frame on, and the status bar says so."""
         self.perception.base_T_camera = np.asarray(result.base_T_camera, dtype=np.float64).copy()
         if self.object_perception is not None:  # the objects map to robot_base through it too
             self.object_perception.geometry.base_T_camera = self.perception.base_T_camera
             self.object_perception.base_T_camera = self.perception.base_T_camera
         self.hand_eye = result
-        self.camera_to_robot = f"camera→robot: calibrated, {result.rms_mm:.1f} mm RMS"
+        self.camera_to_robot = f"camera→arm: calibrated, {result.rms_mm:.1f} mm RMS"
 
     def camera_to_robot_state(self) -> str:
-        """Status-bar text: "camera→robot: calibrated, 1.8 mm RMS", "camera→robot: NOMINAL — run
-        calibration" or "camera→robot: simulated rig (exact)"."""
+        """Status-bar text: "camera→arm: calibrated, 1.8 mm RMS", "camera→arm: NOMINAL — run
+        calibration" or "camera→arm: simulated rig (exact)"."""
         return self.camera_to_robot
 
     @property
@@ -351,15 +351,15 @@ def resolve_base_T_camera(camera, hand_eye_path: Optional[str]):
 
     nominal = camera.base_T_camera()
     if getattr(camera, "kind", "") == "replay" and not hand_eye_path:
-        return nominal, None, "camera→robot: as recorded", ""  # the recording's own pose
+        return nominal, None, "camera→arm: as recorded", ""  # the recording's own pose
     if nominal is None:
         from core.sim.rig import SimRig
 
         nominal = SimRig().base_T_camera  # nominal mount until a hand-eye calibration exists
     true_T = getattr(camera, "true_base_T_camera", None)
     exact_sim = camera.kind == "sim" and true_T is not None and np.allclose(true_T(), nominal)
-    nominal_state = ("camera→robot: simulated rig (exact)" if exact_sim
-                     else "camera→robot: NOMINAL — run calibration")
+    nominal_state = ("camera→arm: simulated rig (exact)" if exact_sim
+                     else "camera→arm: NOMINAL — run calibration")
     pair = hand_eye_pair_id(camera)
     if hand_eye_path:
         try:
@@ -373,11 +373,11 @@ def resolve_base_T_camera(camera, hand_eye_path: Optional[str]):
         try:
             result, warning = load_hand_eye(path, expected_pair=pair)
         except HandEyeFileError as exc:
-            return nominal, None, nominal_state, f"camera→robot NOMINAL: {exc}"
+            return nominal, None, nominal_state, f"camera→arm NOMINAL: {exc}"
     if warning:
-        return nominal, None, nominal_state, f"camera→robot NOMINAL: {warning}"
+        return nominal, None, nominal_state, f"camera→arm NOMINAL: {warning}"
     return (np.asarray(result.base_T_camera, float), result,
-            f"camera→robot: calibrated, {result.rms_mm:.1f} mm RMS", "")
+            f"camera→arm: calibrated, {result.rms_mm:.1f} mm RMS", "")
 
 
 def lissajous_for(profile, kinematics):

@@ -205,7 +205,7 @@ class StatusBarItems:
 
     def __init__(self, status_bar: QtWidgets.QStatusBar | None = None) -> None:
         self.camera_label = ElidedLabel("camera: —")
-        self.robot_label = ElidedLabel("camera→robot: —")  # the hand-eye state
+        self.robot_label = ElidedLabel("camera→arm: —")  # the hand-eye state
         self.bridge_label = ElidedLabel("bridge: —")
         self.fps_label = FixedWidthLabel("— fps", FPS_WIDEST)
         self.latency_label = FixedWidthLabel("latency — ms", LATENCY_WIDEST)
@@ -230,7 +230,7 @@ class StatusBarItems:
 
     def update(self, camera: str, bridge: str, fps: float, latency_ms: float, camera_to_robot: str = "") -> None:
         """Show the camera and bridge states, frames per second and end-to-end latency, and the
-        camera→robot calibration state ("camera→robot: NOMINAL — run calibration" in orange).
+        camera→arm calibration state ("camera→arm: NOMINAL — run calibration" in orange).
 
         Only labels whose text or colour changed are touched: a style sheet set again, even
         the same one, re-polishes the label and re-lays out the status bar.

@@ -129,7 +129,7 @@ def load_hand_eye(path=None, expected_pair: Optional[str] = None) -> tuple[HandE
     warning = ""
     if expected_pair is not None and result.camera_pair != expected_pair:
         warning = (f"{path} is for another camera pair ({result.camera_pair!r}, these are {expected_pair!r}) — "
-                   "stale camera→robot calibration ignored; run `deskarm calibrate-hand-eye`")
+                   "stale camera→arm calibration ignored; run `deskarm calibrate-hand-eye`")
     return result, warning
 
 

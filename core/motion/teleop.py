@@ -761,7 +761,7 @@ def make_hand_source(spec: str, calibration=None, base_T_camera=None) -> HandSou
     if kind == "hsv":
         return ObjectHandSource(arg)
     if calibration is None or base_T_camera is None:
-        raise ValueError(f"teleop source {spec!r}: a pose source needs a stereo calibration and camera→robot pose")
+        raise ValueError(f"teleop source {spec!r}: a pose source needs a stereo calibration and camera→arm pose")
     from core.detect.pose import OnnxPoseModel  # lazily: cv2.dnn only when asked for
 
     return PoseHandSource(OnnxPoseModel(arg), calibration, base_T_camera)

@@ -236,7 +236,7 @@ class Recorder:
             self._put("estop", (self._now(), on))
 
     def calibration(self, calibration=None, base_T_camera=None) -> None:
-        """Record a new stereo calibration (both camera_info) and/or camera→robot pose (/tf_static)."""
+        """Record a new stereo calibration (both camera_info) and/or camera→arm pose (/tf_static)."""
         t = self._now()
         if calibration is not None:
             self._put("camera_info", (t, calibration))

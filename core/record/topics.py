@@ -160,7 +160,7 @@ def tf_message(transforms: Sequence) -> object:
 
 
 def tf_base_camera(base_T_camera, t: float):
-    """/tf_static: robot_base → camera_left (perception's camera→robot transform)."""
+    """/tf_static: robot_base → camera_left (perception's camera→arm transform)."""
     return tf_message([transform_stamped(base_T_camera, t, FRAME_ROBOT_BASE, FRAME_CAMERA_LEFT)])
 
 

@@ -124,7 +124,7 @@ def test_remote_session_finds_the_served_markers_with_local_perception(remote_se
     assert s.banners and s.banners[0] == f"REMOTE — {server}"
     assert s.camera.kind == "remote" and s.camera.name == f"remote: {server}"
     assert s.bridge.url == f"remote:{server}"
-    assert s.camera_to_robot_state() == f"camera→robot: as served by {server}"
+    assert s.camera_to_robot_state() == f"camera→arm: as served by {server}"
     client = s.camera.desk.client
     for _ in range(60):  # frames, until one whose markers the server published too
         frame = s.camera.read()

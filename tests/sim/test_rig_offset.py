@@ -1,4 +1,4 @@
-"""A simulated rig mounted off its nominal pose; the tool marker plate; the session's camera→robot state."""
+"""A simulated rig mounted off its nominal pose; the tool marker plate; the session's camera→arm state."""
 import math
 
 import numpy as np
@@ -34,13 +34,13 @@ def _session(**kw):
 def test_camera_to_robot_state_texts(tmp_path):
     s = _session()
     try:
-        assert s.camera_to_robot_state() == "camera→robot: simulated rig (exact)"
+        assert s.camera_to_robot_state() == "camera→arm: simulated rig (exact)"
         assert np.allclose(s.perception.base_T_camera, s.camera.true_base_T_camera())
     finally:
         s.close()
     s = _session(rig_offset=OFFSET)
     try:
-        assert s.camera_to_robot_state() == "camera→robot: NOMINAL — run calibration"
+        assert s.camera_to_robot_state() == "camera→arm: NOMINAL — run calibration"
         assert np.allclose(s.perception.base_T_camera, s.camera.base_T_camera())  # nominal
         pair, true_T = s.hand_eye_pair_id, s.camera.true_base_T_camera()
     finally:
@@ -50,7 +50,7 @@ def test_camera_to_robot_state_texts(tmp_path):
     path = save_hand_eye(solve_rigid(C, B, camera_pair=pair), tmp_path / "he.toml")
     s = _session(rig_offset=OFFSET, hand_eye=str(path))
     try:
-        assert s.camera_to_robot_state().startswith("camera→robot: calibrated, 0.0 mm RMS")
+        assert s.camera_to_robot_state().startswith("camera→arm: calibrated, 0.0 mm RMS")
         assert np.allclose(s.perception.base_T_camera, true_T, atol=1e-9)
     finally:
         s.close()

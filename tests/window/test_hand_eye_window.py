@@ -1,4 +1,4 @@
-"""The window's camera→robot calibration and Markers tab (pytest-qt, offscreen, simulated desk)."""
+"""The window's camera→arm calibration and Markers tab (pytest-qt, offscreen, simulated desk)."""
 import numpy as np
 import pytest
 from PySide6 import QtCore
@@ -34,7 +34,7 @@ def test_status_bar_says_nominal_until_calibrated_then_the_rms(qtbot, window):
                            created="2026-11-24T08:00:00", ok=True, problem="")
     window.session.use_hand_eye(result)
     window._refresh_status()
-    assert window.status_items.robot_label.text() == "camera→robot: calibrated, 1.0 mm RMS"
+    assert window.status_items.robot_label.text() == "camera→arm: calibrated, 1.0 mm RMS"
     assert np.allclose(window.session.perception.base_T_camera, truth)
 
 
