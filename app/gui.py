@@ -244,12 +244,24 @@ class MainWindow(QtWidgets.QMainWindow):
         self.rearm_button.sigHeld.connect(self.on_rearm_requested)
         self.rearm_button.hide()
         top.addWidget(self.rearm_button)
-        # the target state ("on target", "out of reach by 81 mm"): one or two lines, never taller
+        # between them, messages: the banner (camera, e-stop, notes) while it fits on one line —
+        # a longer one moves to the row below the strip (_place_banner) — and the target state
+        # ("on target", "out of reach by 81 mm") whatever tab is open; never taller than the strip
+        self.strip_messages = QtWidgets.QWidget()
+        self.strip_messages.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
+                                          QtWidgets.QSizePolicy.Policy.Ignored)
+        messages = QtWidgets.QVBoxLayout(self.strip_messages)
+        messages.setContentsMargins(0, 0, 0, 0)
+        messages.setSpacing(2)
+        self.banner = Banner()
+        messages.addWidget(self.banner)
         self.target_panel = TargetPanel()
         self.target_status = self.target_panel.detach_reach_label()
         self.target_status.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
-                                         QtWidgets.QSizePolicy.Policy.Ignored)
-        top.addWidget(self.target_status, 1)
+                                         QtWidgets.QSizePolicy.Policy.Preferred)
+        messages.addWidget(self.target_status)
+        messages.addStretch(1)
+        top.addWidget(self.strip_messages, 1)
         self.estop_button = EStopButton()
         self.estop_button.setFixedSize(self.estop_button.sizeHint().expandedTo(
             QtCore.QSize(STOP_WIDTH_PX, STOP_STRIP_HEIGHT_PX)))
@@ -257,9 +269,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.estop_button.sigStopRequested.connect(self.on_stop_requested)
         top.addWidget(self.estop_button)
         outer.addWidget(self.stop_strip)
-        # what the user needs right after an action, never below the fold: camera, e-stop, notes
-        self.banner = Banner()
-        outer.addWidget(self.banner)
+        # a banner longer than one line in the strip: here, full width, wrapped (STOP stays put)
+        self.banner_row = QtWidgets.QVBoxLayout()
+        self.banner_row.setContentsMargins(0, 0, 0, 0)
+        outer.addLayout(self.banner_row)
         # a press on STOP's area stops over every popup, list, tooltip and dialog; Esc stops in
         # every window; nothing covers STOP; the keys come back after a dialog with no window manager
         self.stop_guard = StopGuard(self.estop_button, self)
@@ -580,6 +593,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802 (Qt override)
         super().resizeEvent(event)
+        self.centralWidget().layout().activate()  # the strip's new width, for the banner's place
+        self._place_banner()
         self._mark_dirty()  # narrow views show compact marker labels
         self._fit_timer.start()
 
@@ -1222,6 +1237,25 @@ class MainWindow(QtWidgets.QMainWindow):
             self.banner.show_message(" · ".join(s.banners), "warn" if "UNCALIBRATED" in " ".join(s.banners) else "info")
         else:
             self.banner.clear()
+        self._place_banner()
+
+    def _place_banner(self) -> None:
+        """The banner in the STOP strip while its text fits there on one line, else in the row
+        below the strip (wrapped, full width): short messages cost no height, long ones are read
+        whole, and STOP — alone at the strip's right end, at a fixed height — never moves."""
+        banner = self.banner
+        room = self.strip_messages.width()
+        padding = 2 * 10 + 8  # the banner's horizontal padding and a margin
+        fits = banner.fontMetrics().horizontalAdvance(banner.text()) + padding <= room
+        in_strip = banner.parentWidget() is self.strip_messages
+        if fits == in_strip or not banner.text():
+            return
+        if fits:
+            self.banner_row.removeWidget(banner)
+            self.strip_messages.layout().insertWidget(0, banner)
+        else:
+            self.strip_messages.layout().removeWidget(banner)
+            self.banner_row.addWidget(banner)
 
     @QtCore.Slot(str)
     def on_bridge_requested(self, url: str) -> None:
@@ -1262,6 +1296,7 @@ class MainWindow(QtWidgets.QMainWindow):
             if self.twin3d is None:
                 self.view_3d_button.setChecked(False)
                 self.banner.show_message(f"3D view unavailable: {available_3d()[1]}", "warn")
+                self._place_banner()
                 return
             self.twin3d.configure_for(self.session.profile, self.session.kinematics)
             self.twin3d.redraw_unchanged = not self._only_changes
