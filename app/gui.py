@@ -254,6 +254,7 @@ class MainWindow(QtWidgets.QMainWindow):
         messages.setContentsMargins(0, 0, 0, 0)
         messages.setSpacing(2)
         self.banner = Banner()
+        self.banner.sigChanged.connect(self._place_banner)
         messages.addWidget(self.banner)
         self.target_panel = TargetPanel()
         self.target_status = self.target_panel.detach_reach_label()
@@ -1237,7 +1238,6 @@ class MainWindow(QtWidgets.QMainWindow):
             self.banner.show_message(" · ".join(s.banners), "warn" if "UNCALIBRATED" in " ".join(s.banners) else "info")
         else:
             self.banner.clear()
-        self._place_banner()
 
     def _place_banner(self) -> None:
         """The banner in the STOP strip while its text fits there on one line, else in the row
@@ -1296,7 +1296,6 @@ class MainWindow(QtWidgets.QMainWindow):
             if self.twin3d is None:
                 self.view_3d_button.setChecked(False)
                 self.banner.show_message(f"3D view unavailable: {available_3d()[1]}", "warn")
-                self._place_banner()
                 return
             self.twin3d.configure_for(self.session.profile, self.session.kinematics)
             self.twin3d.redraw_unchanged = not self._only_changes

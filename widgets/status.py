@@ -17,8 +17,11 @@ class Banner(QtWidgets.QLabel):
     message on a narrow screen grows the strip instead of being cut. Mouse events pass through
     (it may sit over an image that the user taps).
 
-    Signals: none.
+    Signals:
+    - sigChanged(): the message changed or was cleared (GUI thread) — its owner may move it.
     """
+
+    sigChanged = QtCore.Signal()
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -43,13 +46,17 @@ class Banner(QtWidgets.QLabel):
         if level != self._level:
             self._level = level
             self._apply_style()
+        changed = text != self.text() or self.isHidden()
         self.setText(text)
         self.show()
+        if changed:
+            self.sigChanged.emit()
 
     def clear(self) -> None:  # noqa: D102 - QLabel.clear, plus hiding
         """Remove the message and hide the strip."""
         super().clear()
         self.hide()
+        self.sigChanged.emit()
 
     def _apply_style(self) -> None:
         colour = BANNER_LEVELS[self._level]

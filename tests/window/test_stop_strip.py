@@ -21,6 +21,8 @@ def make_window(qtbot, size=(800, 480), scenario="static", camera="sim"):
     session = DeskSession.create(SessionOptions(camera=camera, scenario=scenario))
     w = MainWindow(session)
     qtbot.addWidget(w)
+    # the offscreen screen is 800x800: a 1280x800 window would be shrunk onto it — keep the size
+    w._fit_timer.timeout.disconnect(w.fit_to_screen)
     w.resize(*size)
     w.show()
     qtbot.waitExposed(w)
@@ -69,6 +71,7 @@ def test_stop_keeps_one_place_in_every_state_and_rearm_stays_away(qtbot, tmp_pat
     w = make_window(qtbot, size)
     try:
         settle(qtbot, w)
+        assert (w.width(), w.height()) == size
         normal = stop_rect(w)
         rects = {"normal": normal}
         press_stop_spot(w)
