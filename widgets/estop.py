@@ -307,19 +307,25 @@ class StopGuard(QtCore.QObject):
             if area.contains(candidate):
                 top.move(candidate.topLeft())
                 return True
-        # does not fit whole: shrink it below STOP (lists scroll), or beside STOP on a tall screen
+        # does not fit whole: shrink it below STOP (lists scroll) or beside STOP — where its
+        # minimum size still fits (a wizard's pages need their height), else where it has more room
         right_side = keep.center().x() >= area.center().x()
         room_below = area.bottom() - keep.bottom()
         room_beside = (keep.left() - area.left()) if right_side else (area.right() - keep.right())
-        if room_below * area.width() >= room_beside * area.height():
-            width = min(frame.width(), area.width())
-            left = min(max(frame.left(), area.left()), area.right() + 1 - width)
-            wanted = QtCore.QRect(left, keep.bottom() + 1, width, min(frame.height(), room_below))
-        else:
-            width = min(frame.width(), room_beside)
-            height = min(frame.height(), area.height())
-            y = min(max(frame.top(), area.top()), area.bottom() + 1 - height)
-            wanted = QtCore.QRect(keep.left() - width if right_side else keep.right() + 1, y, width, height)
+        width = min(frame.width(), area.width())
+        left = min(max(frame.left(), area.left()), area.right() + 1 - width)
+        shrunk_below = QtCore.QRect(left, keep.bottom() + 1, width, min(frame.height(), room_below))
+        width = min(frame.width(), room_beside)
+        height = min(frame.height(), area.height())
+        y = min(max(frame.top(), area.top()), area.bottom() + 1 - height)
+        shrunk_beside = QtCore.QRect(keep.left() - width if right_side else keep.right() + 1, y, width, height)
+        least = top.minimumSizeHint().expandedTo(top.minimumSize())
+
+        def fits(r: QtCore.QRect) -> bool:
+            return r.width() - extra_w >= least.width() and r.height() - extra_h >= least.height()
+
+        options = (shrunk_below, shrunk_beside) if popup else (shrunk_beside, shrunk_below)
+        wanted = max(options, key=lambda r: (fits(r), r.width() * r.height() if not fits(r) else 0))
         border = top.geometry().topLeft() - frame.topLeft()  # the window manager's frame, if any
         top.setGeometry(wanted.left() + border.x(), wanted.top() + border.y(),
                         wanted.width() - extra_w, wanted.height() - extra_h)
