@@ -220,7 +220,9 @@ class StopGuard(QtCore.QObject):
       have to be;
     - **the keys keep working without a window manager**: when a dialog or popup closes, and when
       the window first shows, the window takes the keyboard focus back (on X11 with no window
-      manager the focus otherwise falls to the root window and Esc, F1 and Ctrl+Q do nothing).
+      manager the focus otherwise falls to the root window and Esc, F1 and Ctrl+Q do nothing);
+      a key that reaches the window while Qt counts it as inactive still triggers the window's
+      action for it (its shortcuts would not match).
 
     STOP from here is the same request as the button's: ``sigStopRequested`` fires on every press
     and Esc (stopping twice is stopping). Modal dialogs block Qt's input to every other window,
@@ -353,7 +355,7 @@ class StopGuard(QtCore.QObject):
         if kind in _PRESS_EVENTS:
             return self._on_press(event)
         if kind == QtCore.QEvent.Type.KeyPress:
-            return self._on_key(event)
+            return self._on_key(obj, event)
         if kind in (QtCore.QEvent.Type.Show, QtCore.QEvent.Type.Resize, QtCore.QEvent.Type.Move):
             self._on_geometry(obj, kind)
         elif kind in (QtCore.QEvent.Type.Hide, QtCore.QEvent.Type.Close):
@@ -378,9 +380,11 @@ class StopGuard(QtCore.QObject):
         event.accept()
         return True  # taken: the press does nothing else (no list item picked, no button under it)
 
-    def _on_key(self, event: QtGui.QKeyEvent) -> bool:
-        if event.key() != QtCore.Qt.Key.Key_Escape or not self._alive():
+    def _on_key(self, obj: QtCore.QObject, event: QtGui.QKeyEvent) -> bool:
+        if not self._alive():
             return False
+        if event.key() != QtCore.Qt.Key.Key_Escape:
+            return self._key_without_activation(obj, event)
         stamp = (event.timestamp(), event.key(), event.isAutoRepeat())
         if stamp != self._last_key or event.timestamp() == 0:
             self._last_key = stamp
@@ -388,6 +392,24 @@ class StopGuard(QtCore.QObject):
         # a popup closes as well (Esc's usual meaning); a dialog stays open and the main window
         # has nothing else to do with Esc
         return QtWidgets.QApplication.instance().activePopupWidget() is None
+
+    def _key_without_activation(self, obj: QtCore.QObject, event: QtGui.QKeyEvent) -> bool:
+        """A key the X server gave the window while Qt counts no window as active — with no window
+        manager, the focus set back after a dialog closes is sometimes not seen as an activation
+        (a late focus-out of the closing dialog): the window's own shortcuts (F1, Ctrl+Q) would
+        not match. Trigger the window's action for that key, and ask for the activation again."""
+        app = QtWidgets.QApplication.instance()
+        if (app.activeWindow() is not None or event.isAutoRepeat() or not isinstance(obj, QtGui.QWindow)
+                or obj is not self.window.windowHandle()):
+            return False
+        self.window.activateWindow()
+        pressed = QtGui.QKeySequence(event.keyCombination())
+        for action in self.window.actions():
+            if action.isEnabled() and any(shortcut.matches(pressed) == QtGui.QKeySequence.SequenceMatch.ExactMatch
+                                          for shortcut in action.shortcuts()):
+                action.trigger()
+                return True
+        return False
 
     def _on_geometry(self, obj: QtCore.QObject, kind: QtCore.QEvent.Type) -> None:
         if not isinstance(obj, QtWidgets.QWidget) or not obj.isWindow() or obj is self.window:

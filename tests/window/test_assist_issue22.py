@@ -15,18 +15,17 @@ timer ends a pending key release, waited for with ``qtbot.waitUntil``. Every wor
 """
 import json
 import os
-import queue
-import shutil
 import subprocess
 import sys
 import textwrap
-import threading
 from pathlib import Path
 
 import pytest
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from app.assist_window import AssistSettings, AssistWindow
+from xserver import WAIT_S, why_no_xvfb, x_server
+
 from tests.window.test_assist_window import TIMEOUT_MS, FakeClock, sim_loop, wait_for_press
 from widgets._style import TOUCH_PX
 
@@ -347,8 +346,6 @@ def test_display_problem_names_what_is_missing():
 
 # -- 7, 8, 10 on a real X server ----------------------------------------------------------------------
 
-XVFB_OPT_IN = "DESKARM_TEST_XVFB"
-XVFB_WAIT_S = 60.0  # a loaded 2-core machine starts the window in a few seconds
 
 X_CHILD = textwrap.dedent('''
     import sys
@@ -394,82 +391,21 @@ X_CHILD = textwrap.dedent('''
 ''')
 
 
-def _why_no_xvfb() -> str:
-    if os.environ.get(XVFB_OPT_IN) != "1":
-        return f"real X server test: set {XVFB_OPT_IN}=1 to run it (apt-get install -y xvfb xdotool openbox)"
-    for tool in ("Xvfb", "xdotool", "openbox"):
-        if shutil.which(tool) is None:
-            return f"{tool} is not installed (apt-get install -y xvfb xdotool openbox)"
-    return ""
-
-
-class ChildLines:
-    """A child's output lines, waited on one by one (a reader thread; no sleeps)."""
-
-    def __init__(self, stream):
-        self._q: queue.Queue = queue.Queue()
-        self.seen: list[str] = []
-        threading.Thread(target=self._read, args=(stream,), daemon=True).start()
-
-    def _read(self, stream) -> None:
-        for line in stream:
-            self._q.put(line.strip())
-        self._q.put(None)
-
-    def wait_for(self, prefix: str) -> tuple[str, list[str]]:
-        """The first line starting with ``prefix`` and the lines before it (since the last wait)."""
-        before = []
-        while True:
-            try:
-                line = self._q.get(timeout=XVFB_WAIT_S)
-            except queue.Empty:
-                raise AssertionError(f"no {prefix!r} within {XVFB_WAIT_S:g} s; the window said {self.seen[-8:]}")
-            if line is None:
-                raise AssertionError(f"the window exited before {prefix!r}; it said {self.seen[-8:]}")
-            self.seen.append(line)
-            if line.startswith(prefix):
-                return line, before
-            before.append(line)
-
-
-@pytest.mark.skipif(bool(_why_no_xvfb()), reason=_why_no_xvfb() or "-")
+@pytest.mark.skipif(bool(why_no_xvfb()), reason=why_no_xvfb() or "-")
 @pytest.mark.parametrize("window_manager", [False, True], ids=["no-window-manager", "openbox"])
 def test_on_a_real_x_server_it_fills_the_screen_a_held_key_stops_and_ctrl_q_quits(tmp_path, window_manager):
-    xvfb = subprocess.Popen(["Xvfb", "-displayfd", "1", "-screen", "0", "800x480x24", "-nolisten", "tcp"],
-                            stdout=subprocess.PIPE, text=True)
-    procs = [xvfb]
-    try:
-        display = f":{xvfb.stdout.readline().strip()}"
-        env = dict(os.environ, DISPLAY=display, QT_QPA_PLATFORM="xcb", DESKARM_HOME=str(tmp_path), PYTHONPATH=str(REPO))
-        env.pop("WAYLAND_DISPLAY", None)
-        (tmp_path / "config").mkdir()
-        (tmp_path / "config" / "assist.toml").write_text('mode = "scan2"\n')
-        if window_manager:
-            procs.append(subprocess.Popen(["openbox"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    (tmp_path / "config").mkdir()
+    (tmp_path / "config" / "assist.toml").write_text('mode = "scan2"\n')
+    with x_server(tmp_path, window_manager) as x:
         script = tmp_path / "child.py"
         script.write_text(X_CHILD)
-        child = subprocess.Popen([sys.executable, str(script)], env=env, cwd=str(REPO), stdout=subprocess.PIPE,
-                                 stderr=subprocess.DEVNULL, text=True)
-        procs.append(child)
-        out = ChildLines(child.stdout)
-
-        def xdo(*args):
-            subprocess.run(["xdotool", *args], env=env, check=True, timeout=30)
-
+        child, out = x.start(script)
         ready, _ = out.wait_for("READY")
         assert ready == "READY 0 0 800 480 hint-fits"  # the whole screen, the hint whole
-        xdo("keydown", "space")  # held: the server's auto-repeat sends release/press pairs after 660 ms …
+        x.xdo("keydown", "space")  # held: the server's auto-repeat sends release/press pairs after 660 ms …
         _, before_stop = out.wait_for("STOP")  # … and the hold stops the arm at 1.5 s
-        xdo("keyup", "space")
+        x.xdo("keyup", "space")
         assert not [line for line in before_stop if line.startswith("HIGHLIGHT")]  # no "next" from the repeat
-        xdo("key", "ctrl+q")
+        x.xdo("key", "ctrl+q")
         out.wait_for("CLOSE")
-        assert child.wait(timeout=XVFB_WAIT_S) == 0
-    finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                p.terminate()
-                try:
-                    p.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+        assert child.wait(timeout=WAIT_S) == 0
