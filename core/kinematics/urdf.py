@@ -245,20 +245,49 @@ def frame_names(model) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _default_tip(model) -> str:
-    """The body frame deepest in the tree (most joints above it); the last one on ties."""
-    best, best_depth = None, -1
-    for f in model.frames:
-        if f.type != pin.FrameType.BODY:
+def _chain_problem(model, fid: int, mimic_pairs: dict, mimics: dict, native: bool) -> str:
+    """Why the frame ``fid`` cannot be a tip because of a mimic joint on its chain, or ""."""
+    supports = [int(j) for j in model.supports[model.frames[fid].parentJoint] if j != 0]
+    for jid in supports:
+        if model.names[jid] not in mimics:
             continue
-        depth = len(model.supports[f.parentJoint])
-        if depth >= best_depth:
-            best, best_depth = f.name, depth
-    return best or model.frames[-1].name
+        if not native or mimic_pairs.get(jid) not in supports:
+            return "mimic"
+    return ""
+
+
+def _default_tip(model, mimic_pairs: dict, mimics: dict, native: bool) -> str:
+    """The body frame deepest in the tree (most joints above it; the last one on ties) among the
+    tips ``read_urdf_chain`` accepts. A chain through a joint that other joints mimic (the one
+    motor of a gripper's fingers) ends at a finger, not at the arm's tool: frames before such a
+    joint come first, and a finger is the default only when nothing else moves."""
+    mimicked = {model.names[j] for j in mimic_pairs.values()} | {mj.primary for mj in mimics.values()}
+    best: dict[bool, tuple[int, str]] = {}
+    for fid, f in enumerate(model.frames):
+        if f.type != pin.FrameType.BODY or _chain_problem(model, fid, mimic_pairs, mimics, native):
+            continue
+        joints = [int(j) for j in model.supports[f.parentJoint] if j != 0]
+        if not joints:
+            continue
+        through_gripper = any(model.names[j] in mimicked for j in joints)
+        if len(joints) >= best.get(through_gripper, (-1, ""))[0]:
+            best[through_gripper] = (len(joints), f.name)
+    for through_gripper in (False, True):
+        if through_gripper in best:
+            return best[through_gripper][1]
+    # nothing acceptable moves: the deepest frame, whose chain gives the reason
+    deepest, depth = model.frames[-1].name, -1
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY and len(model.supports[f.parentJoint]) >= depth:
+            deepest, depth = f.name, len(model.supports[f.parentJoint])
+    return deepest
 
 
 def read_urdf_chain(path: Union[str, os.PathLike], tip: Optional[str] = None) -> UrdfChain:
-    """Read a URDF, find ``tip`` (default: the deepest link) and the joints from the root to it.
+    """Read a URDF, find ``tip`` and the joints from the root to it.
+
+    The default tip is the deepest link it accepts (``_default_tip``: the arm's tool before a
+    gripper's fingers, never a frame whose chain holds a mimic without the joint it follows).
 
     Raises ProfileError naming the file for an unreadable or malformed URDF, and naming the
     frame (with the list of valid frames) for an unknown tip. Results are cached per file
@@ -294,7 +323,7 @@ def read_urdf_chain(path: Union[str, os.PathLike], tip: Optional[str] = None) ->
     mimic_pairs = (dict(zip((int(j) for j in model.mimicking_joints), (int(j) for j in model.mimicked_joints)))
                    if native else {})
     frames = frame_names(model)
-    tip_name = tip if tip is not None else _default_tip(model)
+    tip_name = tip if tip is not None else _default_tip(model, mimic_pairs, mimics, native)
     if not model.existFrame(tip_name):  # getFrameId would return len(frames) without raising
         listed = ", ".join(frames[:MAX_FRAMES_LISTED]) + (" …" if len(frames) > MAX_FRAMES_LISTED else "")
         raise _urdf_error(path, f"no frame {tip_name!r} for --tip; valid frames: {listed}")
