@@ -195,3 +195,31 @@ def test_match_picks_the_detection_of_the_tracked_object():
     mine, other = _Det(_box(_path(1)), tuple(_path(1))), _Det(_box((500.0, 80.0)), (500.0, 80.0))
     assert tracker.match([other, mine], 1 / FPS) is mine
     assert tracker.match([other], 1 / FPS) is None
+
+
+def _plain_disc_frame(centre, rng) -> np.ndarray:
+    """A plain red disc on the desk texture: nothing inside it for a correlation filter to lock on."""
+    img = BG.copy()
+    cv2.circle(img, (int(round(centre[0])), int(round(centre[1]))), SIDE // 2, (40, 40, 200), -1, cv2.LINE_AA)
+    return (img + rng.normal(0, 2.0, img.shape)).clip(0, 255).astype(np.uint8)
+
+
+def test_mosse_follows_a_plain_ball_given_the_desk_around_it():
+    """OpenCV's legacy MOSSE learns on its init box alone and gives up when its response's
+    peak-to-sidelobe ratio is under 5.7: on a plain disc that filled the box, every update failed.
+    With the ring of desk around it (CONTEXT_PAD) it follows, as it followed markers on the
+    original desk."""
+    rng = np.random.default_rng(4)
+    raw = cv2.legacy.TrackerMOSSE_create()  # the plain OpenCV tracker on the disc's own box: fails
+    raw.init(_plain_disc_frame(_path(0), rng), tuple(float(v) for v in _box(_path(0))))
+    raw_ok = [raw.update(_plain_disc_frame(_path(k), rng))[0] for k in range(1, 21)]
+    assert raw_ok.count(True) <= 2, raw_ok
+    tracker = ObjectTracker("MOSSE")
+    tracker.start(_plain_disc_frame(_path(0), rng), _box(_path(0)), t=0.0)
+    errors = []
+    for k in range(1, 61):
+        state = tracker.update(_plain_disc_frame(_path(k), rng), k / FPS)  # no detections
+        assert state.ok and not state.lost, k
+        errors.append(float(np.linalg.norm(np.array(state.centre_px) - _path(k))))
+        assert abs(state.box[2] - SIDE) <= 2 and abs(state.box[3] - SIDE) <= 2  # the ball's box, not the context
+    assert max(errors) < 3.0, errors
