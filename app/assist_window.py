@@ -177,28 +177,71 @@ def settings_path() -> Path:
     return user_dir("config") / ASSIST_SETTINGS_FILE
 
 
+_ASSIST_FIX = "fix or delete the file"
+
+
+def _assist_value(key: str, value):
+    """``value`` from assist.toml as the type of setting ``key`` wants, or ValueError saying what is expected."""
+    import math
+
+    default = AssistSettings.__dataclass_fields__[key].default
+
+    def number(v) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ValueError("expected true or false")
+        return value
+    if isinstance(default, float):
+        if not number(value):
+            raise ValueError("expected a number")
+        return float(value)
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ValueError("expected a string")
+        return value
+    if key == "ready_deg":
+        if not (isinstance(value, list) and all(number(v) and math.isfinite(v) for v in value)):
+            raise ValueError("expected a list of finite numbers (degrees, one per joint)")
+        return tuple(float(v) for v in value)
+    if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):  # the *_switch lists
+        raise ValueError("expected a list of switch names such as [\"key:Space\", \"mouse:right\"]")
+    return tuple(value)
+
+
+def _short_value(value) -> str:
+    """``repr(value)`` cut to a line: a value nested hundreds of levels deep stays readable."""
+    import reprlib
+
+    short = reprlib.Repr()
+    short.maxlevel, short.maxlist, short.maxdict, short.maxstring, short.maxother = 2, 4, 4, 40, 40
+    return short.repr(value)
+
+
 def load_assist_settings(path: Optional[Path] = None) -> tuple[AssistSettings, list[str]]:
-    """The saved settings (defaults when there is no file) and warnings for what was not usable."""
-    import tomllib
+    """The saved settings (defaults when there is no file) and warnings for what was not usable.
+
+    A file that cannot be read at all (not TOML, not UTF-8, nested too deeply) gives the defaults
+    and one warning naming the file; a bad value gives the default for that setting only."""
+    from core.paths import UserFileError, read_user_toml
 
     path = Path(path) if path else settings_path()
-    if not path.exists():
-        return AssistSettings(), []
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        return AssistSettings(), [f"{path}: not readable ({exc}) — using the defaults; fix or delete the file"]
+        data = read_user_toml(path, "the assistive view's settings", _ASSIST_FIX)
+    except FileNotFoundError:
+        return AssistSettings(), []
+    except UserFileError as exc:
+        return AssistSettings(), [f"{exc} — using the defaults"]
     settings, warnings = AssistSettings(), []
     for key, value in data.items():
         if key not in AssistSettings.__dataclass_fields__:
             warnings.append(f"{path}: unknown setting {key!r} ignored")
             continue
-        if key.endswith("_switch") or key == "ready_deg":
-            value = tuple(value) if isinstance(value, list) else value
         try:
-            settings = replace(settings, **{key: value})
+            settings = replace(settings, **{key: _assist_value(key, value)})
         except (TypeError, ValueError) as exc:
-            warnings.append(f"{path}: {key}: {exc} — the default is used")
+            warnings.append(f"{path}: {key} = {_short_value(value)}: {exc} — the default is used")
     return settings, warnings
 
 

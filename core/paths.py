@@ -72,3 +72,39 @@ def write_file_atomically(path: str | os.PathLike, data: bytes) -> Path:
                 pass
         raise write_error(path, exc) from None
     return path
+
+
+class UserFileError(ValueError):
+    """A user's TOML file that cannot be read; the message names the file, what is wrong and the fix."""
+
+
+def read_user_toml(path: str | os.PathLike, what: str, fix: str) -> dict:
+    """The tables of a user's TOML file, or UserFileError naming the file, the problem and ``fix``.
+
+    ``what`` names the file's kind ("a hand-eye file"); ``fix`` says what to do ("run `deskarm
+    calibrate-hand-eye` again"). A file that is not there raises FileNotFoundError (callers tell a
+    first start apart); an unreadable, non-UTF-8, invalid or absurdly nested file (tomllib recurses
+    once per nested array or inline table: a RecursionError, never a traceback) raises UserFileError.
+    """
+    import tomllib
+
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise
+    except IsADirectoryError:
+        raise UserFileError(f"{path}: is a folder, expected {what} (a .toml file) — {fix}") from None
+    except OSError as exc:
+        raise UserFileError(f"{path}: cannot read: {os_error_reason(exc)} — {fix}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise UserFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start}) — {fix}") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise UserFileError(f"{path}: not valid TOML ({exc}) — {fix}") from None
+    except (RecursionError, MemoryError):
+        raise UserFileError(f"{path}: nested too deeply (arrays or tables hundreds of levels inside each "
+                            f"other) to be {what} — {fix}") from None

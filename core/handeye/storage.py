@@ -6,19 +6,14 @@ camera pair (a stale calibration: the cameras were swapped or moved to another m
 from __future__ import annotations
 
 import math
-import sys
+import reprlib
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
 from core.handeye.solve import METHODS, HandEyeResult, PlanarMap
-from core.paths import user_dir, write_file_atomically
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
+from core.paths import UserFileError, read_user_toml, user_dir, write_file_atomically
 
 FORMAT = "deskarm-hand-eye-1"
 
@@ -61,70 +56,108 @@ def save_hand_eye(result: HandEyeResult, path=None) -> Path:
     return write_file_atomically(path, _dump(data))
 
 
+FIX = "run `deskarm calibrate-hand-eye` again"
+
+
+def _short(value) -> str:
+    """``repr(value)`` cut to a line (a value nested hundreds of levels deep stays one line)."""
+    short = reprlib.Repr()
+    short.maxlevel, short.maxlist, short.maxdict, short.maxstring, short.maxother = 2, 4, 4, 40, 40
+    return short.repr(value)
+
+
 def _read(path: Path) -> dict:
     try:
-        text = path.read_bytes().decode("utf-8")
+        return read_user_toml(path, "a hand-eye file", FIX)
     except FileNotFoundError:
         raise HandEyeFileError(f"{path}: no such hand-eye file — run `deskarm calibrate-hand-eye`") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise HandEyeFileError(f"{path}: cannot read: {exc}") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise HandEyeFileError(f"{path}: not valid TOML ({exc}) — run `deskarm calibrate-hand-eye` again") from None
+    except UserFileError as exc:
+        raise HandEyeFileError(str(exc)) from None
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _get(data: dict, path: Path, key: str, kind, where: str = ""):
     src = data
     for part in key.split("."):
         if not isinstance(src, dict) or part not in src:
-            raise HandEyeFileError(f"{path}: key {where}{key!r} is missing — run `deskarm calibrate-hand-eye` again")
+            raise HandEyeFileError(f"{path}: key {where}{key!r} is missing — {FIX}")
         src = src[part]
-    if kind is float and isinstance(src, int) and not isinstance(src, bool):
+    if kind is float and _number(src):
         src = float(src)
-    if not isinstance(src, kind):
-        raise HandEyeFileError(f"{path}: key {key!r} = {src!r} is not a {kind.__name__}")
+    if not isinstance(src, kind) or (kind is int and isinstance(src, bool)):
+        expected = {float: "a number", int: "a whole number", str: "a string", list: "a list"}.get(kind, kind.__name__)
+        raise HandEyeFileError(f"{path}: key {key!r} = {_short(src)} is not {expected} — {FIX}")
     return src
+
+
+def _optional_list(data: dict, path: Path, key: str, check, expected: str) -> list:
+    """The list at ``quality.<key>`` ([] when absent), each item passing ``check``, or HandEyeFileError."""
+    quality = data.get("quality", {})
+    items = quality.get(key, []) if isinstance(quality, dict) else []
+    if not isinstance(items, list) or not all(check(v) for v in items):
+        raise HandEyeFileError(f"{path}: key 'quality.{key}' = {_short(items)} must be a list of {expected} — {FIX}")
+    return items
 
 
 def _matrix(data: dict, path: Path, key: str, n: int) -> np.ndarray:
     rows = _get(data, path, key, list)
-    try:
-        M = np.array(rows, dtype=float)
-    except (TypeError, ValueError):
-        M = None
-    if M is None or M.shape != (n, n) or not np.all(np.isfinite(M)):
-        raise HandEyeFileError(f"{path}: key {key!r} must be a {n}x{n} table of finite numbers")
+    ok = len(rows) == n and all(isinstance(r, list) and len(r) == n and all(_number(v) for v in r) for r in rows)
+    M = np.array(rows, dtype=float) if ok else None
+    if M is None or not np.all(np.isfinite(M)):
+        raise HandEyeFileError(f"{path}: key {key!r} must be a {n}x{n} table of finite numbers — {FIX}")
     return M
+
+
+def _finite_at_least_zero(value) -> bool:
+    return _number(value) and math.isfinite(value) and value >= 0
 
 
 def load_hand_eye(path=None, expected_pair: Optional[str] = None) -> tuple[HandEyeResult, str]:
     """(result, warning) from a hand-eye file; warning is "" or says the file is for another pair.
 
-    HandEyeFileError naming the file and the key for a missing, unreadable or invalid file.
+    HandEyeFileError naming the file, the key and what is expected for a missing, unreadable or
+    invalid file (any bad value: nothing of the file is used).
     """
     path = Path(path) if path is not None else default_hand_eye_path()
     data = _read(path)
     method = _get(data, path, "method", str)
     if method not in METHODS:
-        raise HandEyeFileError(f"{path}: key 'method' = {method!r}; valid: {', '.join(METHODS)}")
+        raise HandEyeFileError(f"{path}: key 'method' = {_short(method)}; valid: {', '.join(METHODS)}")
     T = _matrix(data, path, "base_T_camera", 4)
     R = T[:3, :3]
     if np.linalg.norm(R.T @ R - np.eye(3)) > 1e-4 or np.linalg.det(R) < 0 or np.any(T[3] != (0, 0, 0, 1)):
         raise HandEyeFileError(f"{path}: key 'base_T_camera' is not a rigid transform (rotation + translation)")
-    rms = _get(data, path, "quality.rms_mm", float)
-    if not (math.isfinite(rms) and rms >= 0):
-        raise HandEyeFileError(f"{path}: key 'quality.rms_mm' = {rms!r} is not a finite number ≥ 0")
+    values = {}
+    for key in ("rms_mm", "max_mm"):
+        values[key] = _get(data, path, f"quality.{key}", float)
+        if not _finite_at_least_zero(values[key]):
+            raise HandEyeFileError(f"{path}: key 'quality.{key}' = {values[key]!r} is not a finite number ≥ 0 — {FIX}")
+    poses_used = _get(data, path, "quality.poses_used", int)
+    if poses_used < 0:
+        raise HandEyeFileError(f"{path}: key 'quality.poses_used' = {poses_used} must be ≥ 0 — {FIX}")
+    worst_index = _get(data, path, "quality.worst_index", int)
+    residuals = _get(data, path, "quality.residuals_mm", list)
+    if not all(_finite_at_least_zero(v) for v in residuals):
+        raise HandEyeFileError(f"{path}: key 'quality.residuals_mm' = {_short(residuals)} must be a list of "
+                               f"finite numbers ≥ 0 (mm) — {FIX}")
+    rejected = _optional_list(data, path, "rejected", lambda v: isinstance(v, int) and not isinstance(v, bool)
+                              and v >= 0, "whole numbers ≥ 0 (pair indices)")
+    warnings = _optional_list(data, path, "warnings", lambda v: isinstance(v, str), "strings")
+    text = {}
+    for key, default in (("created", ""), ("name", "camera→robot")):
+        text[key] = data.get(key, default)
+        if not isinstance(text[key], str):
+            raise HandEyeFileError(f"{path}: key {key!r} = {_short(text[key])} is not a string — {FIX}")
     result = HandEyeResult(
-        base_T_camera=T, method=method,
-        poses_used=_get(data, path, "quality.poses_used", int),
-        residuals_mm=tuple(float(v) for v in _get(data, path, "quality.residuals_mm", list)),
-        rms_mm=rms, max_mm=_get(data, path, "quality.max_mm", float),
-        worst_index=_get(data, path, "quality.worst_index", int),
-        rejected=tuple(int(v) for v in data.get("quality", {}).get("rejected", [])),
-        warnings=tuple(str(v) for v in data.get("quality", {}).get("warnings", [])),
+        base_T_camera=T, method=method, poses_used=poses_used,
+        residuals_mm=tuple(float(v) for v in residuals),
+        rms_mm=values["rms_mm"], max_mm=values["max_mm"], worst_index=worst_index,
+        rejected=tuple(rejected), warnings=tuple(warnings),
         camera_pair=_get(data, path, "camera_pair", str),
-        created=str(data.get("created", "")), name=str(data.get("name", "camera→robot")),
+        created=text["created"], name=text["name"],
     )
     warning = ""
     if expected_pair is not None and result.camera_pair != expected_pair:
