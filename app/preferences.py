@@ -28,8 +28,8 @@ from core.messages import TargetMode
 from core.preferences import (
     Preferences,
     WindowGeometry,
-    load_preferences,
     preferences_path,
+    read_preferences,
     remembered_mode_refusal,
     reset_preferences,
     save_preferences,
@@ -76,7 +76,10 @@ class WindowPreferences(QtCore.QObject):
         self._window = weakref.ref(window)
         self.path = Path(path) if path else preferences_path()
         self._file_existed = self.path.is_file()
-        self.prefs, self.messages = load_preferences(self.path)
+        loaded = read_preferences(self.path)  # an unreadable file is moved aside, never saved over
+        self.prefs, self.messages = loaded.prefs, loaded.messages
+        # unreadable and it could not be moved aside: saving would destroy the user's file
+        self._keep_unreadable_file = loaded.do_not_overwrite
         self.geometry_restored = False
         self.read_only = False  # True: save() writes nothing (``deskarm --screenshot`` leaves the file alone)
         self._applying = False  # restore/reset at work: their own signals are not user changes
@@ -106,6 +109,10 @@ class WindowPreferences(QtCore.QObject):
         self.prefs = self.collect()
         if self.read_only:
             return True
+        if self._keep_unreadable_file:
+            self._problem(f"{self.path}: not saved — the file could not be read at start and is kept as it "
+                          "is; move it away (or use Reset to defaults) to save the settings again")
+            return False
         try:
             save_preferences(self.prefs, self.path)
         except OSError as exc:
@@ -125,6 +132,7 @@ class WindowPreferences(QtCore.QObject):
         except OSError as exc:
             self._problem(str(exc))
             return False
+        self._keep_unreadable_file = False  # the file was moved aside: saving may start again
         self.prefs = Preferences()
         self._file_existed = True  # the defaults are what the user asked for: the mode too
         self._apply(self.prefs, geometry=False)

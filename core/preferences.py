@@ -5,6 +5,8 @@ The file is ``preferences.toml`` in the user's config folder (``DESKARM_HOME`` o
 damaged file never stops the app: :func:`load_preferences` keeps every good value, uses the
 default for each bad one and returns one message per problem naming the file, the key and the
 fix. Unknown keys are ignored and the next :func:`save_preferences` rewrites the file cleanly.
+A file that cannot be read at all (not TOML, not text, nested too deeply) is never overwritten:
+it is moved to ``preferences.toml.bad`` and the message says where.
 :func:`reset_preferences` moves the file aside (``preferences.toml.bak``).
 
 No Qt here: the window's side (reading widgets, applying values) is ``app.preferences``.
@@ -230,34 +232,65 @@ def save_preferences(prefs: Preferences, path: os.PathLike | str | None = None) 
                                  preferences_to_toml(prefs).encode())
 
 
-def load_preferences(path: os.PathLike | str | None = None) -> tuple[Preferences, list[str]]:
+@dataclass(frozen=True)
+class LoadedPreferences:
+    """What :func:`read_preferences` found: the preferences, one message per problem, and
+    whether the file must be left alone (unreadable and it could not be moved aside)."""
+
+    prefs: Preferences  # the values to use (the defaults for anything unreadable)
+    messages: list[str]  # one per problem, naming the file, the key and the fix
+    kept_aside: Path | None = None  # where an unreadable file was moved (``preferences.toml.bad``)
+    do_not_overwrite: bool = False  # unreadable and still at its place: a save would destroy it
+
+
+def set_aside(path: Path) -> Path:
+    """Move an unreadable ``path`` to ``<name>.bad`` (``.bad.2``, ``.bad.3`` … when taken) so
+    the next save cannot destroy what the user had; returns the new place, OSError if it failed."""
+    for n in range(1, 100):
+        bad = path.with_name(f"{path.name}.bad" + (f".{n}" if n > 1 else ""))
+        if not bad.exists():
+            break
+    os.replace(path, bad)
+    return bad
+
+
+def read_preferences(path: os.PathLike | str | None = None) -> LoadedPreferences:
     """The saved preferences and one message per problem found (never raises).
 
-    A missing file gives the defaults and no message; an unreadable or invalid file gives the
-    defaults; a bad value gives the default for that value only. Unknown keys are ignored.
+    A missing file gives the defaults and no message. An unreadable or invalid file gives the
+    defaults and is moved aside (:func:`set_aside`, the message says where) — never overwritten
+    by the next save; when it cannot be moved, ``do_not_overwrite`` is set. A bad value gives the
+    default for that value only. Unknown keys are ignored.
     """
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib  # type: ignore[no-redef]
+    from core.paths import UserFileError, read_user_toml
 
     path = Path(path) if path else preferences_path()
     try:
-        text = path.read_text(encoding="utf-8")
+        data = read_user_toml(path, "a preferences file", FIX)
     except FileNotFoundError:
-        return Preferences(), []
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = os_error_reason(exc) if isinstance(exc, OSError) else "not UTF-8 text"
-        return Preferences(), [f"{path}: cannot read: {reason} — using the defaults; {FIX}"]
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        return Preferences(), [f"{path}: not valid TOML ({exc}) — using the defaults; {FIX}"]
-    except RecursionError:  # tomllib recurses once per nested array / inline table
-        return Preferences(), [f"{path}: nested too deeply to be a preferences file — using the defaults; {FIX}"]
+        return LoadedPreferences(Preferences(), [])
+    except UserFileError as exc:
+        problem = str(exc).rsplit(f" — {FIX}", 1)[0]
+        if not path.is_file():  # e.g. the config folder is a file: nothing of the user's to keep
+            return LoadedPreferences(Preferences(), [f"{problem} — using the defaults; {FIX}"])
+        try:
+            bad = set_aside(path)
+        except OSError as move_error:
+            return LoadedPreferences(Preferences(), [
+                f"{problem} — using the defaults; it could not be moved aside ({os_error_reason(move_error)}), "
+                f"so nothing is saved over it this run; {FIX}"], do_not_overwrite=True)
+        return LoadedPreferences(Preferences(), [
+            f"{problem} — kept as {bad}; using the defaults (copy back what you need from it)"], kept_aside=bad)
     reader = _Reader(path)
     prefs = reader.preferences(data)
-    return prefs, reader.messages
+    return LoadedPreferences(prefs, reader.messages)
+
+
+def load_preferences(path: os.PathLike | str | None = None) -> tuple[Preferences, list[str]]:
+    """(preferences, messages) of :func:`read_preferences` (never raises; an unreadable file is
+    moved aside to ``preferences.toml.bad`` and the message says so)."""
+    loaded = read_preferences(path)
+    return loaded.prefs, loaded.messages
 
 
 def reset_preferences(path: os.PathLike | str | None = None) -> Path | None:
@@ -452,6 +485,9 @@ __all__ = [
     "Preferences",
     "WindowGeometry",
     "load_preferences",
+    "read_preferences",
+    "LoadedPreferences",
+    "set_aside",
     "preferences_path",
     "preferences_to_toml",
     "recent_ports_list",

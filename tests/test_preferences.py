@@ -104,7 +104,8 @@ def test_a_corrupt_file_gives_the_defaults_and_a_message_then_a_save_rewrites_it
     path = write("[target\nmode = 'follow'\n")
     prefs, messages = load_preferences()
     assert prefs == Preferences()
-    assert len(messages) == 1 and messages[0].startswith(f"{path}: not valid TOML") and FIX in messages[0]
+    assert len(messages) == 1 and messages[0].startswith(f"{path}: not valid TOML")
+    assert f"kept as {path}.bad" in messages[0]  # the unreadable file is kept, never saved over
     save_preferences(prefs)
     assert load_preferences() == (Preferences(), [])
 
@@ -114,8 +115,9 @@ def test_a_file_that_is_not_text_gives_the_defaults_and_a_message():
     path.parent.mkdir(parents=True)
     path.write_bytes(b"\xff\xfe\x00 binary")
     prefs, messages = load_preferences()
-    assert prefs == Preferences() and messages == [
-        f"{path}: cannot read: not UTF-8 text — using the defaults; {FIX}"]
+    assert prefs == Preferences() and len(messages) == 1
+    assert messages[0].startswith(f"{path}: not UTF-8 text") and f"kept as {path}.bad;" in messages[0]
+    assert Path(f"{path}.bad").read_bytes() == b"\xff\xfe\x00 binary"
 
 
 def test_a_wrong_type_costs_only_that_value():

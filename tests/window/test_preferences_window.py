@@ -193,7 +193,7 @@ def test_a_corrupt_file_still_builds_the_window_and_says_what_to_do(qtbot, sessi
     prefs = w.preferences
     prefs.restore()
     assert len(prefs.messages) == 1
-    assert str(path) in prefs.messages[0] and "Reset to defaults" in prefs.messages[0]
+    assert str(path) in prefs.messages[0] and f"kept as {path}.bad" in prefs.messages[0]
     assert w.target_panel.mode == "manual" and not prefs.geometry_restored
     assert prefs.save() and load_preferences() == (prefs.collect(), [])  # rewritten cleanly
 
