@@ -222,6 +222,12 @@ def load_calibration(
         if problem:
             raise bad(f"'{key}' {problem}; a camera matrix is [[fx, s, cx], [0, fy, cy], [0, 0, 1]] "
                       f"with fx, fy > 0 (px) — {fix}", key)
+    file_size = (int(scalars["image_width"]), int(scalars["image_height"]))
+    for mkey, dkey in (("M1", "D1"), ("M2", "D2")):
+        problem = distortion_problem(values[mkey], values[dkey], file_size)
+        if problem:
+            shown = ", ".join(f"{v:g}" for v in values[dkey].ravel())
+            raise bad(f"'{dkey}' = [{shown}] {problem} — not a plausible lens; {fix}", dkey)
     R = values["R"]
     if abs(np.linalg.det(R) - 1.0) > 1e-3:
         raise bad(f"'R' is not a rotation matrix (det ≠ 1) — {fix}", "R")
@@ -268,6 +274,81 @@ def _camera_matrix_problem(m: np.ndarray) -> str:
     if not (np.allclose(m[2], (0.0, 0.0, 1.0), atol=1e-9) and abs(m[1, 0]) <= 1e-9 * max(fx, fy)):
         return (f"has last row [{m[2, 0]:g} {m[2, 1]:g} {m[2, 2]:g}] and [1][0] = {m[1, 0]:g} "
                 f"(expected [0 0 1] and 0)")
+    return ""
+
+
+# A plausible lens maps the image border to a closed ring around the principal point, in the same
+# order, neither shrunk to a point nor blown up far beyond the image (wide lenses reach ~2–3×).
+MAX_BORDER_STRETCH = 4.0  # undistorted border radius / distorted radius, at most
+MIN_BORDER_STRETCH = 0.5  # … and at least (a lens never "zooms in" twice at its edges)
+BORDER_ROUND_TRIP_PX = 1.0  # undistort then distort again must come back this close
+BORDER_POINTS_PER_SIDE = 16
+RAY_STEPS = 24  # samples from the principal point to each corner and edge midpoint
+
+
+def _border_ring(w: int, h: int) -> np.ndarray:
+    """Points around the image border in order (clockwise in image coordinates), shape (N, 2)."""
+    t = np.linspace(0.0, 1.0, BORDER_POINTS_PER_SIDE, endpoint=False)
+    x1, y1 = w - 1.0, h - 1.0
+    return np.concatenate([
+        np.stack([t * x1, np.zeros_like(t)], 1), np.stack([np.full_like(t, x1), t * y1], 1),
+        np.stack([(1 - t) * x1, np.full_like(t, y1)], 1), np.stack([np.zeros_like(t), (1 - t) * y1], 1),
+    ])
+
+
+def distortion_problem(M: np.ndarray, D: np.ndarray, image_size: tuple[int, int]) -> str:
+    """Why ``D`` is not a plausible lens distortion for camera ``M`` at ``image_size``, or "".
+
+    The image border is undistorted (``cv2.undistortPoints``) and must stay a ring around the
+    principal point in the same order, within MIN_BORDER_STRETCH…MAX_BORDER_STRETCH of where it
+    was, and distort back to where it was; rays from the principal point to the border must stay
+    monotonic (a lens model that folds back has no inverse there: every point past the fold is
+    triangulated somewhere else). ``D1 = [1e6, 0, 0, 0, 0]`` shrinks the border 100-fold: refused.
+    """
+    w, h = image_size
+    M = np.asarray(M, np.float64)
+    D = np.asarray(D, np.float64).reshape(1, -1)
+    if not np.any(D):
+        return ""
+    centre = np.array([M[0, 2], M[1, 2]])
+    ring = _border_ring(w, h)
+    corners_mid = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1],
+                            [(w - 1) / 2, 0], [w - 1, (h - 1) / 2], [(w - 1) / 2, h - 1], [0, (h - 1) / 2]], float)
+    s = np.linspace(0.05, 1.0, RAY_STEPS)
+    rays = centre + (corners_mid - centre)[:, None, :] * s[None, :, None]  # (8, RAY_STEPS, 2)
+    pts = np.concatenate([ring, rays.reshape(-1, 2)])
+    try:
+        # OpenCV's default 5 iterations do not converge at the border of a strong (real) lens
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+        norm = cv2.undistortPoints(pts.reshape(-1, 1, 2), M, D, None, None, None, criteria).reshape(-1, 2)
+        und = norm @ M[:2, :2].T + M[:2, 2]
+        rvec = tvec = np.zeros(3)
+        back = cv2.projectPoints(np.column_stack([norm, np.ones(len(norm))]), rvec, tvec, M, D)[0].reshape(-1, 2)
+    except cv2.error as exc:
+        return f"cannot be applied to the image ({str(exc).strip().splitlines()[-1]})"
+    if not (np.all(np.isfinite(und)) and np.all(np.isfinite(back))):
+        return "sends the image border to infinity"
+    r_before = np.linalg.norm(pts - centre, axis=1)
+    r_after = np.linalg.norm(und - centre, axis=1)
+    far = r_before > 0.25 * min(w, h)  # the stretch of points near the centre says little
+    stretch = r_after[far] / r_before[far]
+    if stretch.max() > MAX_BORDER_STRETCH or stretch.min() < MIN_BORDER_STRETCH:
+        worst = stretch.max() if stretch.max() > MAX_BORDER_STRETCH else stretch.min()
+        return (f"moves the image border to {worst:.3g}× its distance from the image centre (a real lens: "
+                f"{MIN_BORDER_STRETCH:g}…{MAX_BORDER_STRETCH:g}×)")
+    round_trip = float(np.max(np.linalg.norm(back - pts, axis=1)))
+    if round_trip > BORDER_ROUND_TRIP_PX:
+        return (f"cannot be undone at the image border (a point comes back {round_trip:.3g} px away: the lens "
+                f"model folds back inside the image)")
+    ring_und = und[:len(ring)] - centre
+    turn = np.diff(np.unwrap(np.arctan2(ring_und[:, 1], ring_und[:, 0])))
+    ring_raw = ring - centre
+    turn_raw = np.diff(np.unwrap(np.arctan2(ring_raw[:, 1], ring_raw[:, 0])))
+    if np.any(np.sign(turn) != np.sign(turn_raw)):
+        return "scrambles the order of the points around the image border"
+    ray_r = r_after[len(ring):].reshape(len(corners_mid), RAY_STEPS)
+    if np.any(np.diff(ray_r, axis=1) <= 0):
+        return "folds the image back on itself between its centre and its border"
     return ""
 
 
