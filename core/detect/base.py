@@ -14,7 +14,7 @@ from typing import Any, Optional, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-DETECTION_KINDS = ("marker", "colour", "circle", "object")
+DETECTION_KINDS = ("marker", "colour", "circle", "object", "board", "diamond")
 
 Box = tuple[int, int, int, int]  # (x, y, w, h) in px
 
@@ -31,6 +31,8 @@ class Detection:
     radius_px: Optional[float] = None  # circles and blobs: radius (px); None when meaningless
     corners: Optional[np.ndarray] = None  # markers: (4, 2) float64 px, OpenCV's corner order
     contour: Optional[np.ndarray] = None  # blobs: (N, 2) px outline
+    points: Optional[np.ndarray] = None  # boards: (N, 2) px, the chessboard corners found
+    point_ids: Optional[tuple[int, ...]] = None  # boards: each point's corner id on the board
 
     def __post_init__(self) -> None:
         if self.kind not in DETECTION_KINDS:
@@ -52,6 +54,12 @@ class Detection:
             c = np.asarray(self.contour, dtype=np.float64).reshape(-1, 2)
             c.setflags(write=False)
             object.__setattr__(self, "contour", c)
+        if self.points is not None:
+            c = np.asarray(self.points, dtype=np.float64).reshape(-1, 2)
+            c.setflags(write=False)
+            object.__setattr__(self, "points", c)
+        if self.point_ids is not None:
+            object.__setattr__(self, "point_ids", tuple(int(i) for i in self.point_ids))
 
     def shifted(self, dx: float, dy: float) -> "Detection":
         """The same detection moved by (dx, dy) px (a crop's result into full-image coordinates)."""
@@ -65,6 +73,7 @@ class Detection:
             centre_px=(self.centre_px[0] + dx, self.centre_px[1] + dy),
             corners=None if self.corners is None else self.corners + offset,
             contour=None if self.contour is None else self.contour + offset,
+            points=None if self.points is None else self.points + offset,
         )
 
     def to_dict(self, contour: bool = False) -> dict[str, Any]:
@@ -79,6 +88,10 @@ class Detection:
         }
         if self.corners is not None:
             out["corners"] = [[round(float(x), 2), round(float(y), 2)] for x, y in self.corners]
+        if self.points is not None:
+            out["points"] = [[round(float(x), 2), round(float(y), 2)] for x, y in self.points]
+        if self.point_ids is not None:
+            out["point_ids"] = list(self.point_ids)
         if contour and self.contour is not None:
             out["contour"] = [[round(float(x), 2), round(float(y), 2)] for x, y in self.contour]
         return out

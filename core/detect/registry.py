@@ -18,6 +18,8 @@ _NAMED: dict[str, Factory] = {
     "aruco": "core.detect.markers:make_aruco",
     "hsv": "core.detect.colour:make_hsv",
     "circles": "core.detect.circles:make_circles",
+    "charuco": "core.detect.charuco:make_charuco",  # a ChArUco board (options: CharucoParams' fields)
+    "diamond": "core.detect.charuco:make_diamond",  # ChArUco diamonds (options: DiamondParams' fields)
     # the shipped model (resources/models/desk_objects.onnx); options are OnnxYoloDetector's
     "desk": "core.detect.learned.shipped:make_desk_detector",
 }
@@ -35,7 +37,7 @@ def detector_names() -> tuple[str, ...]:
 
 _names = detector_names
 
-DETECTORS = detector_names()  # the built-in names: "aruco", "hsv", "circles", "desk", "onnx:PATH"
+DETECTORS = detector_names()  # the built-in names: "aruco", "hsv", "circles", "charuco", "diamond", "desk", "onnx:PATH"
 
 
 def register_detector(name: str, factory: Factory, prefix: bool = False) -> None:
@@ -91,7 +93,8 @@ def parse_detector_list(text: str) -> list[str]:
 
 
 def make_detector(name: str, **options) -> Detector:
-    """A detector by name: "aruco", "hsv", "circles" (options are its settings' fields), "desk" (the
+    """A detector by name: "aruco", "hsv", "circles", "charuco", "diamond" (options are its settings'
+    fields), "desk" (the
     shipped model) or "onnx:PATH" (options go to the ONNX detector for both). ValueError for an unknown name or option,
     SettingsError (a ValueError) for a value out of range."""
     name = _check_name(name)

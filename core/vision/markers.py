@@ -3,7 +3,9 @@ with each (``markers.toml`` in the user's config folder, or a path given on the 
 
 A file looks like ``resources/markers.example.toml``::
 
-    dictionary = "DICT_APRILTAG_36h11"   # any predefined OpenCV ArUco or AprilTag dictionary
+    dictionary = "DICT_APRILTAG_36h11"   # any predefined OpenCV ArUco or AprilTag dictionary, or the
+                                         # path of a dictionary file (cv2.aruco writeDictionary's YAML;
+                                         # a relative path is taken from this file's folder)
     side_m = 0.03                        # printed side of the black square, metres
 
     [places]                             # named spots in robot_base, metres
@@ -40,7 +42,9 @@ from core.vision.perception import (
     ARUCO_DICTIONARIES,
     ARUCO_DICTIONARY_ALIASES,
     DEFAULT_DICTIONARY,
+    dictionary_name,
     dictionary_size,
+    is_dictionary_file,
 )
 
 try:
@@ -91,7 +95,7 @@ class MarkerSpec:
 class MarkersConfig:
     """The validated markers of a session; read-only and shared by perception, targets and GUI."""
 
-    dictionary: str = DEFAULT_DICTIONARY  # a name of core.vision.perception.ARUCO_DICTIONARIES
+    dictionary: str = DEFAULT_DICTIONARY  # a name of core.vision.perception.ARUCO_DICTIONARIES, or a dictionary file's path
     side_m: float = DEFAULT_SIDE_M  # printed side of the marker's black square, m, 0.005 … 0.5
     markers: tuple[MarkerSpec, ...] = ()  # in file order, ids unique, at least one
     places: Mapping[str, Point3] = field(default_factory=dict)  # name -> point in robot_base, m
@@ -158,14 +162,25 @@ class MarkersConfig:
 # Checks shared by the dataclasses (code-built configs) and the file reader (file + key in errors)
 
 
-def _check_dictionary(where: str, value: Any) -> str:
+def _check_dictionary(where: str, value: Any, folder: Optional[Path] = None) -> str:
+    """The canonical dictionary name, or a dictionary file's path (a relative one is taken from
+    ``folder``, the markers file's own, so the pair can move together)."""
     if isinstance(value, str):
         if value in ARUCO_DICTIONARIES:
             return value
         if value in ARUCO_DICTIONARY_ALIASES:
             return ARUCO_DICTIONARY_ALIASES[value]
+        if is_dictionary_file(value):
+            path = Path(value).expanduser()
+            if folder is not None and not path.is_absolute():
+                path = Path(os.path.abspath(folder / path))  # absolute: the config may be re-checked elsewhere
+            try:
+                return dictionary_name(str(path))
+            except ValueError as exc:
+                raise MarkersError(f"{where}dictionary = {value!r}: {exc}") from None
     raise MarkersError(f"{where}dictionary = {value!r} is unknown; expected one of "
-                       f"{', '.join(ARUCO_DICTIONARIES)}")
+                       f"{', '.join(ARUCO_DICTIONARIES)}, or the path of a dictionary file "
+                       "(.yml/.yaml/.json/.xml, as cv2.aruco Dictionary.writeDictionary writes)")
 
 
 def _check_side(where: str, value: Any) -> None:
@@ -223,7 +238,8 @@ def parse_markers(data: Mapping[str, Any], source: str = "") -> MarkersConfig:
         if key not in _TOP_KEYS:
             hint = " (the array of tables is [[marker]], singular)" if key == "markers" else ""
             raise MarkersError(f"{where}unknown key {key}{hint}; expected one of {', '.join(_TOP_KEYS)}")
-    dictionary = _check_dictionary(where, data.get("dictionary", DEFAULT_DICTIONARY))
+    folder = Path(source).expanduser().parent if source else None
+    dictionary = _check_dictionary(where, data.get("dictionary", DEFAULT_DICTIONARY), folder)
     side_m = data.get("side_m", DEFAULT_SIDE_M)
     _check_side(where, side_m)
     places_table = data.get("places", {})

@@ -9,6 +9,9 @@ without the interpolation, and costs microseconds instead of a millisecond.
 from __future__ import annotations
 
 import functools
+import os
+import re
+import stat
 import time
 from dataclasses import dataclass, replace
 from typing import Iterable, Optional, Sequence
@@ -46,16 +49,32 @@ ARUCO_DICTIONARIES, ARUCO_DICTIONARY_ALIASES = _predefined_dictionaries()
 DEFAULT_DICTIONARY = "DICT_6X6_250"  # the simulated desk's markers (it renders no other)
 
 
-def dictionary_name(name: str) -> str:
-    """The canonical name of a predefined dictionary (``"DICT_APRILTAG_36H11"`` -> ``"…36h11"``).
+DICTIONARY_FILE_SUFFIXES = (".yml", ".yaml", ".json", ".xml", ".yml.gz", ".yaml.gz", ".json.gz", ".xml.gz")
 
-    Raises ValueError listing the valid names.
+
+def is_dictionary_file(name) -> bool:
+    """True when ``name`` is a path to a dictionary file rather than a predefined name: it has a
+    folder in it or ends in a FileStorage suffix (.yml, .yaml, .json, .xml, optionally .gz)."""
+    text = str(name)
+    return "/" in text or os.sep in text or text.lower().endswith(DICTIONARY_FILE_SUFFIXES)
+
+
+def dictionary_name(name: str) -> str:
+    """The canonical name of a predefined dictionary (``"DICT_APRILTAG_36H11"`` -> ``"…36h11"``), or
+    a custom dictionary file's path (``~`` expanded) once the file reads as a dictionary.
+
+    Raises ValueError listing the valid names, or saying what is wrong with the file.
     """
+    if isinstance(name, os.PathLike) or (isinstance(name, str) and is_dictionary_file(name)):
+        path = os.path.expanduser(os.fspath(name))
+        read_dictionary_file(path)  # ValueError naming the file and what is wrong
+        return path
     if name in ARUCO_DICTIONARIES:
         return name
     if name in ARUCO_DICTIONARY_ALIASES:
         return ARUCO_DICTIONARY_ALIASES[name]
-    raise ValueError(f"unknown ArUco dictionary {name!r}; valid: {', '.join(ARUCO_DICTIONARIES)}")
+    raise ValueError(f"unknown ArUco dictionary {name!r}; valid: {', '.join(ARUCO_DICTIONARIES)}, or a "
+                     "dictionary file (.yml/.yaml/.json/.xml, as cv2.aruco Dictionary.writeDictionary writes)")
 
 
 @functools.lru_cache(maxsize=None)
@@ -64,22 +83,88 @@ def predefined_dictionary(name: str) -> "cv2.aruco.Dictionary":
     return cv2.aruco.getPredefinedDictionary(ARUCO_DICTIONARIES[dictionary_name(name)])
 
 
+def read_dictionary_file(path) -> "cv2.aruco.Dictionary":
+    """A custom dictionary from a FileStorage file (YAML, JSON or XML with ``nmarkers``,
+    ``markersize``, ``maxCorrectionBits`` and ``marker_0`` … as ``Dictionary.writeDictionary``
+    writes), read with ``cv2.FileStorage`` and ``Dictionary.readDictionary``.
+
+    Re-read when the file changes. ValueError naming the file and what is wrong.
+    """
+    text = os.path.expanduser(os.fspath(path))
+    try:
+        st = os.stat(text)
+    except OSError as exc:
+        raise ValueError(f"dictionary file {text}: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError(f"dictionary file {text}: not a file")
+    return _read_dictionary_file(os.path.abspath(text), text, st.st_mtime_ns, st.st_size)
+
+
+_DICTIONARY_FILE_HELP = ("expected nmarkers, markersize, maxCorrectionBits and marker_0 … marker_N-1 (each "
+                         "markersize² bits as a string of 0 and 1), as cv2.aruco Dictionary.writeDictionary "
+                         "writes with a cv2.FileStorage")
+
+
+@functools.lru_cache(maxsize=32)
+def _read_dictionary_file(path: str, shown: str, mtime_ns: int, size: int) -> "cv2.aruco.Dictionary":
+    try:  # OpenCV raises cv2.error, or SystemError from the binding, on a file it cannot parse
+        storage = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as exc:
+        found = re.search(r"\(-\d+:([^)]*)\)", str(exc.__cause__ or exc))  # "(-212:Parsing error)"
+        reason = f" ({found.group(1).lower()})" if found else ""
+        raise ValueError(f"dictionary file {shown}: not a YAML, JSON or XML file OpenCV can read{reason}; "
+                         f"{_DICTIONARY_FILE_HELP}") from None
+    try:
+        if not storage.isOpened():
+            raise ValueError(f"dictionary file {shown}: OpenCV cannot open it (empty, or not YAML, JSON or XML); "
+                             f"{_DICTIONARY_FILE_HELP}")
+        dictionary = cv2.aruco.Dictionary()
+        try:
+            ok = dictionary.readDictionary(storage.root())
+        except cv2.error as exc:
+            raise ValueError(f"dictionary file {shown}: {str(exc).strip().splitlines()[-1]}; "
+                             f"{_DICTIONARY_FILE_HELP}") from None
+        count = storage.getNode("nmarkers")
+        n = int(count.real()) if count.isInt() else 0
+        bits = int(dictionary.markerSize) ** 2
+        if not ok or dictionary.bytesList is None or n < 1 or int(dictionary.bytesList.shape[0]) != n:
+            raise ValueError(f"dictionary file {shown}: not an ArUco dictionary; {_DICTIONARY_FILE_HELP}")
+        for i in range(n):
+            marker = storage.getNode(f"marker_{i}")
+            code = marker.string() if marker.isString() else ""
+            if len(code) != bits or set(code) - {"0", "1"}:
+                raise ValueError(f"dictionary file {shown}: marker_{i} = {code!r} must be {bits} bits "
+                                 f"(markersize {dictionary.markerSize} squared) of 0 and 1")
+    finally:
+        storage.release()
+    return dictionary
+
+
+def aruco_dictionary(name: str) -> "cv2.aruco.Dictionary":
+    """The dictionary ``name`` names: predefined (a name or alias) or a dictionary file's path."""
+    canonical = dictionary_name(name)
+    if canonical in ARUCO_DICTIONARIES:
+        return predefined_dictionary(canonical)
+    return read_dictionary_file(canonical)
+
+
 def dictionary_size(name: str) -> int:
     """How many markers the dictionary has: valid ids are 0 … size - 1."""
-    return int(predefined_dictionary(name).bytesList.shape[0])
+    return int(aruco_dictionary(name).bytesList.shape[0])
 
 
 def make_detector(dictionary: str = DEFAULT_DICTIONARY, fast: bool = False) -> cv2.aruco.ArucoDetector:
     """An ArUco detector with contour corner refinement (best stereo depth, see TECH_NOTES).
 
-    ``dictionary`` is any name of ``ARUCO_DICTIONARIES`` (or an alias), AprilTag families too.
+    ``dictionary`` is any name of ``ARUCO_DICTIONARIES`` (or an alias), AprilTag families too, or
+    the path of a custom dictionary file (``read_dictionary_file``).
 
     ``fast`` uses one adaptive-threshold window (15 px) and a higher threshold constant: on a
     textured desk that cuts the candidate contours ~5x (0.9 ms instead of 4.5 ms per 640x480
     image here) and, with 4 triangulated corners, halves the 3D error. The default parameters
     (windows 3…23 px) are kept for re-acquiring a lost marker in hard light.
     """
-    name = dictionary_name(dictionary)  # ValueError listing the valid names
+    dictionary = aruco_dictionary(dictionary)  # ValueError listing the valid names, or naming the file
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_CONTOUR
     if fast:
@@ -87,7 +172,7 @@ def make_detector(dictionary: str = DEFAULT_DICTIONARY, fast: bool = False) -> c
         params.adaptiveThreshWinSizeMax = 15
         params.adaptiveThreshConstant = 15
     return cv2.aruco.ArucoDetector(
-        cv2.aruco.getPredefinedDictionary(ARUCO_DICTIONARIES[name]),
+        dictionary,
         params,
         cv2.aruco.RefineParameters(),
     )

@@ -60,7 +60,7 @@ def test_an_unreadable_image_is_one_line_naming_it_and_exit_1(image_path, tmp_pa
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--detector", "aruco,yolo"], "unknown detector 'yolo'; valid: aruco, hsv, circles, desk, onnx:PATH"),
+    (["--detector", "aruco,yolo"], "unknown detector 'yolo'; valid: aruco, hsv, circles, charuco, diamond, desk, onnx:PATH"),
     (["--detector", ""], "no detector given"),
     (["--colour", "red=1,2,3"], "is not NAME=HLO,SLO,VLO,HHI,SHI,VHI"),
     (["--colour", "red=1,2,3,4,300,6"], "s_hi = 300 is outside the allowed range 0…255"),
