@@ -16,12 +16,23 @@ from core.session import SCENARIOS, SessionOptions
 from core.vision.cameras import CAMERA_CHOICES
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's, without breaking words at hyphens (``calibrate-hand-eye`` stays whole)."""
+
+    def _fill_text(self, text, width, indent):
+        import textwrap
+
+        text = self._whitespace_matcher.sub(" ", text).strip()
+        return textwrap.fill(text, width, initial_indent=indent, subsequent_indent=indent, break_on_hyphens=False)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="deskarm",
+        formatter_class=_HelpFormatter,
         description="See objects on the desk in 3D with two webcams and have a servo arm reach them. "
         "With nothing plugged in it runs on a simulated desk.",
-        epilog="tools: deskarm calibrate --help | deskarm calibrate-hand-eye --help | deskarm ik --help | deskarm bench-ik --help",
+        epilog=tools_epilog(),
     )
     p.add_argument("--camera", default="auto", help=f"camera source: {CAMERA_CHOICES} (default: auto)")
     p.add_argument("--bridge", default="sim://", help=f"motor bridge: {BRIDGE_CHOICES} (default: sim://)")
@@ -98,6 +109,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--after", type=float, default=2.0, help="screenshot: seconds of the scenario first (default: 2)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default: 1280x800)")
     return p
+
+
+def tools_epilog() -> str:
+    """The help's list of tools, from ``SUBCOMMANDS`` (what ``main`` dispatches on), so it cannot drift."""
+    return "tools (deskarm TOOL --help for each): " + " | ".join(SUBCOMMANDS)
 
 
 def parse_size(text: str) -> tuple[int, int]:
