@@ -33,6 +33,7 @@ from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
 from core.sim.scenarios import thing_kind
+from core.sim.scoring import CupsScore, FollowScore
 
 MAX_SAMPLES = 20_000  # samples kept per metric: a p95 from this many is within ~0.3 percentile points
 RECENT_PERCEPTION = 60  # frames behind the status line's perception figure (2 s at 30 fps)
@@ -164,6 +165,8 @@ class RunMetrics:
     teleop_corner_error_mm: list = field(default_factory=list)  # calibrated hand box corners vs the true ones
     gesture_events: list = field(default_factory=list)  # {event, t_detected, t_true}
     teleop_state_s: dict = field(default_factory=dict)
+    # scorers against the simulated desk's truth (core.sim.scoring), only when frames carried truth
+    truth_scores: list = field(default_factory=list)
 
     def object_error(self, kind: str) -> Reservoir:
         """The error reservoir of one kind of object (created on first use, its own seed)."""
@@ -232,6 +235,7 @@ class RunMetrics:
             "disconnected_s": rounded(self.disconnected_s),
             **self.object_summary(),
             **self.teleop_summary(),
+            **{k: v for score in self.truth_scores for k, v in score.summary().items()},
         }
 
     def teleop_summary(self) -> dict:
@@ -330,6 +334,17 @@ class HeadlessRunner:
         self._teleop_hold_ref: Optional[tuple] = None  # (commanded tool point, measured tool point) at hold start
         self._teleop_last_cmd_p: Optional[np.ndarray] = None
         self._teleop_events_seen = 0
+        # why the camera gave nothing, read before the session closes it (its status, else "")
+        self.camera_status = ""
+        # scored against the truth (core.sim.scoring): following a marker, the cups game's choice
+        aim = lambda p: session.targeter.pointing.apply(p)  # noqa: E731 (the targeter's rule at the time)
+        self.follow_score = (FollowScore(session.kinematics, aim, session.targeter.follow_id,
+                                         samples=Reservoir(MAX_SAMPLES, 12))
+                             if session.targeter.mode is TargetMode.FOLLOW and session.targeter.follow_id is not None
+                             else None)
+        self.cups_score = (CupsScore(aim, session.targeter.cup_ids)
+                           if session.targeter.mode is TargetMode.CUPS else None)
+        self._truth_seen = False
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
@@ -375,6 +390,7 @@ class HeadlessRunner:
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))
                 self._score_frame(frame, result)
+                self._score_truth(frame)
                 if objects is not None:
                     self._score_objects(frame, objects)
                 if m.following:
@@ -394,6 +410,9 @@ class HeadlessRunner:
             m.event_steps, m.tick_steps = schedule.event_steps, schedule.tick_steps
             m.bridge_disconnects = self.reconnector.disconnects
             m.disconnected_s = self.reconnector.disconnected_s()
+            if self._truth_seen:
+                m.truth_scores = [sc for sc in (self.follow_score, self.cups_score) if sc is not None]
+            self.camera_status = str(getattr(s.camera, "status_message", "") or "")
             s.close()
         return m
 
@@ -435,6 +454,8 @@ class HeadlessRunner:
         if self.recorder is not None:
             self.recorder.command(cmd, self._goal)
         m.commands_sent += 1
+        if self.follow_score is not None:
+            self.follow_score.note_command(now, cmd.q, q_now)
         if command_outside_limits(sent, cmd, s.bridge, s.profile):
             m.limit_violations += 1
         if not cmd.reachable:
@@ -458,6 +479,17 @@ class HeadlessRunner:
             self._score_teleop(cmd, state, s.clock.now())
         if m.following and state is not None:
             self._score_follow(state, s.clock.now())
+
+    def _score_truth(self, frame) -> None:
+        """Hand the frame's truth (and the cups game's decision) to the truth scorers."""
+        if frame.truth is None:
+            return
+        self._truth_seen = True
+        if self.follow_score is not None:
+            self.follow_score.note_frame(float(frame.t), frame.truth)
+        goal = self._goal
+        if self.cups_score is not None and goal is not None and goal.valid:
+            self.cups_score.note_decision(goal.base_p_target, frame.truth)
 
     def _record_frame(self, frame, result) -> None:
         """Hand this frame's messages to the recorder (queue puts: nothing waits for the disk)."""
@@ -838,12 +870,22 @@ def label_matches(label: str, truth_label: str) -> bool:
     return label_specificity(label, truth_label) > 0
 
 
-def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None, record=None) -> int:
+def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None, record=None, err=None) -> int:
     """Entry point of ``deskarm --headless``; returns the process exit code.
 
-    ``record``: None (no recording), True or "" (a new folder under the recordings folder) or a
-    path (a new rosbag2 folder there). Following an object (``options.follow_object``), intercept
-    and skew compensation are session options."""
+    The result alone goes to ``out`` (default stdout): the JSON object with ``as_json`` (so
+    ``deskarm --headless --json | python -m json.tool`` works), else the one ``done:`` line
+    (and ``recorded:``). Everything else — banners, the once-a-second status, the recording's
+    problems, why a run failed — goes to ``err``: stderr by default, or ``out`` when only ``out``
+    is given (one stream holding everything in order, for a caller that reads it all).
+
+    Exit code 1 when the run saw nothing (no camera frame at all: a camera that never opened, a
+    remote desk that never answered), after one line on ``err`` saying why; the JSON is still
+    printed. ``record``: None (no recording), True or "" (a new folder under the recordings folder)
+    or a path (a new rosbag2 folder there). Following an object (``options.follow_object``),
+    intercept and skew compensation are session options."""
+    if err is None:
+        err = out if out is not None else sys.stderr
     out = out or sys.stdout
     duration_s = check_duration(duration_s)  # before any device is opened
     session = DeskSession.create(options)
@@ -857,16 +899,16 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
         except (OSError, ValueError):
             session.close()
             raise
-        print(f"deskarm: recording to {recorder.path}", file=out)
+        print(f"deskarm: recording to {recorder.path}", file=err)
     for banner in session.banners:
-        print(f"deskarm: {banner}", file=out)
+        print(f"deskarm: {banner}", file=err)
     mode = "as fast as possible (simulated clock)" if options.simulated_clock else f"paced at {options.fps:g} fps"
     print(
         f"deskarm headless: camera {session.camera.name}, bridge {session.bridge.url}, "
         f"robot {session.profile.name}, scenario {options.scenario}, {duration_s:g} s {mode}",
-        file=out,
+        file=err, flush=True,
     )
-    runner = HeadlessRunner(session, duration_s, status=lambda line: print(line, file=out, flush=True),
+    runner = HeadlessRunner(session, duration_s, status=lambda line: print(line, file=err, flush=True),
                             recorder=recorder)
     freeze_startup_objects()
     try:
@@ -878,7 +920,7 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
     if recorder is not None:
         summary.update(record_summary(recorder))
         if recorder.error:
-            print(f"deskarm: {recorder.error}", file=out, flush=True)
+            print(f"deskarm: {recorder.error}", file=err, flush=True)
     if as_json:
         print(json.dumps(summary), file=out, flush=True)
     else:
@@ -891,7 +933,17 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
         if recorder is not None:
             print(f"recorded: {summary['record_path']}, {summary['frames_recorded']} frames "
                   f"({summary['frames_dropped']} dropped), {summary['record_mb']} MB", file=out)
+    if metrics.frames == 0:
+        print(f"deskarm: {saw_nothing(session.camera.name, metrics.sim_s, runner.camera_status)}", file=err, flush=True)
+        return 1
     return 0
+
+
+def saw_nothing(camera_name: str, seconds: float, status: str = "") -> str:
+    """The line a run that received no camera frame ends with: which camera, for how long, why."""
+    why = status or "it delivered nothing"
+    return (f"the run saw nothing: {camera_name} gave no frame in {seconds:.1f} s ({why}) — "
+            "check the camera (--camera) and try again")
 
 
 def record_summary(recorder) -> dict:
