@@ -336,6 +336,7 @@ class HeadlessRunner:
         self._teleop_events_seen = 0
         # why the camera gave nothing, read before the session closes it (its status, else "")
         self.camera_status = ""
+        self.camera_connected = False
         # scored against the truth (core.sim.scoring): following a marker, the cups game's choice
         aim = lambda p: session.targeter.pointing.apply(p)  # noqa: E731 (the targeter's rule at the time)
         self.follow_score = (FollowScore(session.kinematics, aim, session.targeter.follow_id,
@@ -413,6 +414,7 @@ class HeadlessRunner:
             if self._truth_seen:
                 m.truth_scores = [sc for sc in (self.follow_score, self.cups_score) if sc is not None]
             self.camera_status = str(getattr(s.camera, "status_message", "") or "")
+            self.camera_connected = bool(getattr(s.camera, "is_connected", False))
             s.close()
         return m
 
@@ -934,16 +936,20 @@ def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=
             print(f"recorded: {summary['record_path']}, {summary['frames_recorded']} frames "
                   f"({summary['frames_dropped']} dropped), {summary['record_mb']} MB", file=out)
     if metrics.frames == 0:
-        print(f"deskarm: {saw_nothing(session.camera.name, metrics.sim_s, runner.camera_status)}", file=err, flush=True)
+        print(f"deskarm: {saw_nothing(session.camera.name, metrics.sim_s, runner.camera_status, runner.camera_connected, duration_s)}",
+              file=err, flush=True)
         return 1
     return 0
 
 
-def saw_nothing(camera_name: str, seconds: float, status: str = "") -> str:
-    """The line a run that received no camera frame ends with: which camera, for how long, why."""
-    why = status or "it delivered nothing"
-    return (f"the run saw nothing: {camera_name} gave no frame in {seconds:.1f} s ({why}) — "
-            "check the camera (--camera) and try again")
+def saw_nothing(camera_name: str, seconds: float, status: str = "", connected: bool = False,
+                duration_s: Optional[float] = None) -> str:
+    """The line a run that received no camera frame ends with: which camera, for how long, why
+    (the camera's status; an open camera with nothing to say: a run shorter than its first frame)."""
+    head = f"the run saw nothing: {camera_name} gave no frame in {seconds:.1f} s"
+    if connected and not status and duration_s is not None:
+        return f"{head} (it was open: --duration {duration_s:g} s may be shorter than its first frame)"
+    return f"{head} ({status or 'it delivered nothing'}) — check the camera (--camera) and try again"
 
 
 def record_summary(recorder) -> dict:

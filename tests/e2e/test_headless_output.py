@@ -56,3 +56,12 @@ def test_run_headless_writes_the_result_to_out_and_the_rest_to_err():
     assert run_headless(SessionOptions(camera="sim", simulated_clock=True), 1.5, True, out=out, err=err) == 0
     assert json.loads(out.getvalue())["frames"] > 0
     assert "deskarm: SIMULATED DESK" in err.getvalue() and "\nt=" in err.getvalue()
+
+
+def test_the_saw_nothing_line_blames_the_camera_only_when_it_was_not_open():
+    from app.headless import saw_nothing
+
+    missing = saw_nothing("webcams 98,99", 1.0, "cameras 98, 99 unplugged or not delivering frames", False, 1.0)
+    assert "(cameras 98, 99 unplugged" in missing and missing.endswith("check the camera (--camera) and try again")
+    short = saw_nothing("simulated desk (static)", 0.0, "", True, 0.01)
+    assert "--duration 0.01 s may be shorter than its first frame" in short and "check the camera" not in short
