@@ -8,13 +8,15 @@ from core.session import DeskSession, SessionOptions
 
 def test_named_cameras_missing_with_a_real_arm_send_no_pulses(board, capsys):
     """`--camera /dev/video99,/dev/video98 --bridge v2:PORT`: before, the simulated desk stood in
-    and the board received moving pulses; now nothing is commanded at all."""
+    and the board received moving pulses; now nothing is commanded at all, and the run that saw
+    nothing exits 1."""
     code = main(["--headless", "--camera", "/dev/video99,/dev/video98", "--bridge", f"v2:{board.path}",
                  "--duration", "1.5", "--json"])
-    out = capsys.readouterr().out
-    assert code == 0
-    assert "CAMERA MISSING — camera /dev/video99 did not open" in out and "SIMULATED DESK" not in out
-    summary = json.loads(out.strip().splitlines()[-1])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "CAMERA MISSING — camera /dev/video99 did not open" in captured.err and "SIMULATED DESK" not in captured.err
+    assert "the run saw nothing" in captured.err.strip().splitlines()[-1]
+    summary = json.loads(captured.out)
     assert summary["frames"] == 0 and summary["commands_sent"] == 0
     assert board.pwm_until_silent(0.3) == []  # no servo pulse was ever set
 

@@ -52,13 +52,13 @@ def test_moving_scenes_keep_error_small_and_limits_safe(scenario):
 def test_cli_json_line_has_every_metric(capsys):
     code = main(["--headless", "--camera", "sim", "--scenario", "static", "--duration", "2", "--fast", "--json"])
     assert code == 0
-    lines = capsys.readouterr().out.strip().splitlines()
-    summary = json.loads(lines[-1])
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)  # stdout is the JSON object alone
     for key in ("scenario", "frames", "fps", "perception_ms_p50", "perception_ms_p95", "latency_ms_p50",
                 "latency_ms_p95", "error_3d_mm_p50", "error_3d_mm_p95", "markers_seen_ratio",
                 "commands_sent", "limit_violations", "reach_error_mm_p50"):
         assert key in summary, key
-    assert any(line.startswith("t=") for line in lines[:-1]), "one status line per second"
+    assert any(line.startswith("t=") for line in captured.err.splitlines()), "one status line per second (stderr)"
 
 
 @pytest.mark.parametrize("argv, expected", [

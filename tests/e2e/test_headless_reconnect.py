@@ -31,7 +31,7 @@ STARTUP_S = 60.0  # a child process importing numpy, OpenCV and Pinocchio on a l
 
 
 class Lines:
-    """A child process's stdout lines, read by a thread into a queue."""
+    """A child process's lines (its stderr: the status lines), read by a thread into a queue."""
 
     def __init__(self, stream) -> None:
         self.all: list[str] = []
@@ -75,7 +75,7 @@ def test_a_paced_headless_run_outlives_the_board_going_away_and_reconnects(host_
              "--bridge", f"v2:{link}", "--duration", "5", "--json"],
             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )
-        lines = Lines(proc.stdout)
+        lines = Lines(proc.stderr)  # the once-a-second status lines; the JSON alone is on stdout
         first.next_pwm(timeout=STARTUP_S)  # the run is on: its commands move the first board
         first.stop()  # unplugged mid-run: the line hangs up
         link.unlink()  # udev removes the link with the device
@@ -85,8 +85,8 @@ def test_a_paced_headless_run_outlives_the_board_going_away_and_reconnects(host_
         second = Board(host_firmware)  # plugged in again: a new tty behind the same name
         os.symlink(second.path, link)
         second.next_pwm(timeout=MAX_RETRY_S + TIMEOUT_S)  # commands after the reconnect reach it
-        assert proc.wait(timeout=STARTUP_S) == 0, proc.stderr.read()
-        out = lines.rest()
+        assert proc.wait(timeout=STARTUP_S) == 0, lines.rest()
+        out = proc.stdout.read()
     finally:
         if proc is not None and proc.poll() is None:
             proc.kill()
@@ -94,7 +94,7 @@ def test_a_paced_headless_run_outlives_the_board_going_away_and_reconnects(host_
         first.stop()
         if second is not None:
             second.stop()
-    summary = json.loads(out[-1])
+    summary = json.loads(out)
     assert summary["bridge_disconnects"] == 1
     assert summary["disconnected_s"] >= FIRST_RETRY_S  # noticed before the new board was there
     assert summary["duration_s"] >= 5.0  # the whole duration, not cut short by the loss

@@ -18,6 +18,7 @@ from core.motion.teleop import (
     ENDED,
     FOLLOWING,
     HOLDING,
+    TARGET_BOX_BY_KIND,
     Box,
     HandObservation,
     MarkerHandSource,
@@ -26,6 +27,7 @@ from core.motion.teleop import (
     TeleopController,
     TeleopMapping,
     TeleopParams,
+    default_target_box,
     map_box_to_box,
     parse_teleop_source,
     reachable_target_box,
@@ -95,12 +97,16 @@ def test_smoothing_lags_a_step_then_converges():
     assert last[0] == pytest.approx(wanted[0], abs=1e-5)
 
 
-def test_every_profile_reaches_the_common_target_box():
+def test_every_profile_reaches_the_common_target_box_and_starts_from_its_own():
     box = Box(*COMMON_TARGET_BOX)
     for name in list_profiles():
         profile = load_profile(name)
-        got = reachable_target_box(build_kinematics(profile), profile.workspace.desk_margin_m)
-        assert got == box, name  # not shrunk: the whole common box is reachable
+        kinematics = build_kinematics(profile)
+        margin = profile.workspace.desk_margin_m
+        assert reachable_target_box(kinematics, margin, box=box) == box, name  # not shrunk: all reachable
+        assert reachable_target_box(kinematics, margin) == default_target_box(kinematics), name
+    assert default_target_box(build_kinematics(load_profile("delta"))) == Box(*TARGET_BOX_BY_KIND["delta3"])
+    assert default_target_box(build_kinematics(load_profile("desk_rrr"))) == box
 
 
 class _Unreachable:

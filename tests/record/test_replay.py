@@ -104,7 +104,7 @@ def test_deskarm_headless_replays_a_recording_from_the_command_line(recording):
     summary = json.loads(out.stdout.strip().splitlines()[-1])
     assert summary["frames"] == recording.frames
     check_close(summary["error_3d_mm_p50"], recording.error_3d_mm_p50, 0.1, "error_3d_mm_p50")
-    assert f"REPLAY — {recording.path}" in out.stdout
+    assert f"REPLAY — {recording.path}" in out.stderr  # the banner; stdout is the JSON alone
 
 
 def test_the_session_uses_the_recorded_calibration_and_camera_pose(recording):
