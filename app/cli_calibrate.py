@@ -7,9 +7,12 @@ Prints one line per pair (used, or rejected and why), then a summary; ``--json``
 JSON object. Without ``--out`` the result goes where the app loads it at start
 (``<config>/calibration.yaml``; the one it replaces is kept as ``calibration.previous.yaml``).
 A calibration that fails a sanity check (implausible focal length, board distance, too little tilt,
-baseline ~0, swapped or upside-down camera, RMS too high) is reported and not written unless
-``--force``. Exit codes: 0 calibrated, 1 calibration failed (too few usable pairs, or a failed
-check without ``--force``), 2 bad arguments.
+fewer than 6 pairs or a focal length uncertain by more than 3 % when pairs are left out, baseline ~0,
+swapped, upside-down or mirrored camera, pictures paired off by one, RMS too high) is reported and
+not written unless ``--force``; a mistake that fails several checks at once is said first, alone,
+and the checks it explains after it. A board described with the wrong size stops early (after 3
+pairs that agree) naming the chessboard in view when it calibrates. Exit codes: 0 calibrated,
+1 calibration failed (too few usable pairs, or a failed check without ``--force``), 2 bad arguments.
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ from pathlib import Path
 from typing import Optional
 
 EARLY_CHECK_PAIRS = 4  # when none of the first pairs shows the board, look for a likely mistake
+EARLY_AGREE_PAIRS = 3  # … or as soon as this many pairs agree on another (smaller) board in view
 
 
 def build_parser(prog: str = "deskarm calibrate") -> argparse.ArgumentParser:
@@ -122,6 +126,7 @@ def run(command: str, argv: list[str]) -> int:
         detect_pair,
         parse_board,
         read_session_board,
+        seen_grid,
         suggest_board,
     )
 
@@ -170,9 +175,11 @@ def run(command: str, argv: list[str]) -> int:
         status = (f"ok ({len(det.object_points)} corners, {det.left.method}/{det.right.method})" if det.ok
                   else f"rejected: {det.reason}")
         say(f"[{k:3d}/{len(pairs)}] {lp.name} + {rp.name}: {status}")
-        if k == EARLY_CHECK_PAIRS < len(pairs) and not any(d.ok for d in detections):
+        seen = seen_grid(detections)
+        if k < len(pairs) and not any(d.ok for d in detections) and (
+                k == EARLY_CHECK_PAIRS or (seen is not None and k == EARLY_AGREE_PAIRS)):
             # a wrong board description fails every pair, slowly: stop early when we can tell why
-            hint = suggest_board(sample_images, board, pairs=pairs)
+            hint = suggest_board(sample_images, board, pairs=pairs, seen=seen)
             if hint:
                 message = (f"the first {k} pairs show no {board.describe()} — stopped early\nhint: {hint}")
                 if args.json:
@@ -189,7 +196,7 @@ def run(command: str, argv: list[str]) -> int:
     except CalibrationFailed as exc:
         hint = None
         if sum(d.ok for d in detections) < options.min_pairs:
-            hint = suggest_board(sample_images, board, pairs=pairs)
+            hint = suggest_board(sample_images, board, pairs=pairs, seen=seen_grid(detections))
         message = str(exc) + (f"\nhint: {hint}" if hint else "")
         if args.json:
             rejected = [{"pair": p.name, "reason": p.reason} for p in exc.pairs if p.reason]

@@ -901,6 +901,9 @@ class CalibrationWizard(StopDialog):
         notes = [verdict] if verdict else ["good: errors below 0.5 px"]
         if problems:  # a sanity check failed: said first, and Save and use stays off
             notes = [f"NOT INSTALLABLE — {p}" for p in problems] + notes
+            consequences = list(getattr(rep, "consequences", ()) or ())
+            if consequences:  # checks that failed only because of the problem above, after it
+                notes.insert(len(problems), "which also explains: " + "; ".join(consequences))
         notes += list(rep.notes)
         self.summary_label.setText(summary + "\n" + "\n".join(notes))
         bad = problems or "warning" in verdict

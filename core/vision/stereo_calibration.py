@@ -229,6 +229,7 @@ class BoardDetection:
     method: str = ""  # classic | classic+clahe | sb | charuco
     image_size: tuple[int, int] = (0, 0)  # (width, height) px
     square_px: float = 0.0  # median distance between neighbouring corners (px)
+    grid_seen: Optional[tuple[int, int]] = None  # when not ok: (cols, rows) of a whole, smaller chessboard in view
 
     @property
     def n(self) -> int:
@@ -308,6 +309,7 @@ class _Probe:
     n: int  # corners
     at_edge: bool  # the grid touches the image border (board partly out of view)
     grid: Optional[tuple[int, int]]  # (columns, rows) when the corners form a clean grid
+    corners: Optional[np.ndarray] = None  # (n,2) px in the searched image, row by row
 
 
 def _grid_shape(c: np.ndarray) -> Optional[tuple[int, int]]:
@@ -336,7 +338,65 @@ def _probe_partial(work: np.ndarray) -> Optional[_Probe]:
     edge = 1.5 * float(np.median(d))  # about one square from the image border
     at_edge = bool(c[:, 0].min() < edge or c[:, 1].min() < edge or c[:, 0].max() > w - 1 - edge
                    or c[:, 1].max() > h - 1 - edge)
-    return _Probe(len(c), at_edge, _grid_shape(c))
+    return _Probe(len(c), at_edge, _grid_shape(c), c)
+
+
+def _checked_grid(work: np.ndarray, probe: _Probe) -> Optional[tuple[int, int]]:
+    """The probe's grid without outer rows / columns that are not chessboard-like (a tray or frame
+    edge taken for a row of corners)."""
+    cols, rows = probe.grid
+    bad = _foreign_lines(work, probe.corners, cols, rows)
+    cols -= bad["first col"] + bad["last col"]
+    rows -= bad["first row"] + bad["last row"]
+    return (cols, rows) if cols >= 3 and rows >= 3 else None
+
+
+def _box_mean(grey: np.ndarray, p: np.ndarray, r: int) -> float:
+    x, y = int(round(float(p[0]))), int(round(float(p[1])))
+    h, w = grey.shape[:2]
+    if not (r <= x < w - r and r <= y < h - r):
+        return math.nan
+    return float(grey[y - r:y + r + 1, x - r:x + r + 1].mean())
+
+
+def _saddle_misfit(grey: np.ndarray, c: np.ndarray, cols: int, rows: int) -> np.ndarray:
+    """Per corner (rows, cols): how unlike a chessboard corner it is. The four squares around a
+    true corner alternate (the two on each diagonal alike, the diagonals unlike): the ratio of the
+    larger within-diagonal difference to the between-diagonal contrast, ~0.05 on real webcam
+    photos and ~1 where an edge of the board's tray or frame was taken for a row of corners
+    (NaN where a square falls outside the image)."""
+    g = c.reshape(rows, cols, 2).astype(np.float64)
+    out = np.full((rows, cols), math.nan)
+    for i in range(rows):
+        for j in range(cols):
+            p = g[i, j]
+            u = g[i, j + 1] - p if j + 1 < cols else p - g[i, j - 1]
+            v = g[i + 1, j] - p if i + 1 < rows else p - g[i - 1, j]
+            r = max(1, int(0.15 * min(np.linalg.norm(u), np.linalg.norm(v))))
+            a, b, cc, d = (_box_mean(grey, p + 0.4 * (s1 * u + s2 * v), r)
+                           for s1, s2 in ((1, 1), (1, -1), (-1, -1), (-1, 1)))
+            contrast = abs((a + cc) - (b + d)) / 2
+            out[i, j] = max(abs(a - cc), abs(b - d)) / max(contrast, 1e-6)
+    return out
+
+
+FOREIGN_LINE_MISFIT = 0.5  # an outer row / column whose corners' median misfit exceeds this is no chessboard row
+INNER_MISFIT = 0.25  # … when the rest of the grid is clearly a chessboard (median below this)
+
+
+def _foreign_lines(grey: np.ndarray, c: np.ndarray, cols: int, rows: int) -> dict[str, int]:
+    """Which outer rows / columns of a found grid are not chessboard-like (1 = foreign)."""
+    m = _saddle_misfit(grey, c, cols, rows)
+    lines = {"first row": m[0], "last row": m[-1], "first col": m[:, 0], "last col": m[:, -1]}
+    inner = m[1:-1, 1:-1] if rows > 2 and cols > 2 else m
+    inner_med = float(np.nanmedian(inner)) if np.isfinite(inner).any() else math.nan
+    out = {k: 0 for k in lines}
+    if not inner_med < INNER_MISFIT:
+        return out
+    for k, line in lines.items():
+        if np.isfinite(line).sum() >= 2 and float(np.nanmedian(line)) > FOREIGN_LINE_MISFIT:
+            out[k] = 1
+    return out
 
 
 def _miscounted(probe: Optional[_Probe], board: ChessboardSpec) -> Optional[tuple[int, int]]:
@@ -352,6 +412,19 @@ def _miscounted(probe: Optional[_Probe], board: ChessboardSpec) -> Optional[tupl
     return None
 
 
+def _smaller_whole_grid(probe: Optional[_Probe], board: ChessboardSpec) -> Optional[tuple[int, int]]:
+    """The grid found when it is a clean, whole grid (not cut by the image border) that is smaller
+    than the given board, in the board's orientation (cols >= rows as given), else None: the board
+    in view is likely that size, not the one described."""
+    if probe is None or probe.grid is None or probe.at_edge:
+        return None
+    a, b = sorted(probe.grid)
+    lo, hi = sorted((board.cols, board.rows))
+    if a < 3 or not (a <= lo and b <= hi) or (a, b) == (lo, hi):
+        return None
+    return (b, a) if board.cols >= board.rows else (a, b)
+
+
 def _not_found(grey: np.ndarray, board: BoardSpec, probe: Optional[_Probe] = None) -> str:
     """Why the board was not found, as specific as we can tell."""
     if isinstance(board, ChessboardSpec):
@@ -359,6 +432,11 @@ def _not_found(grey: np.ndarray, board: BoardSpec, probe: Optional[_Probe] = Non
         if wrong is not None:
             return (f"board not found: the board in view has {wrong[0]}x{wrong[1]} inner corners, not "
                     f"{board.cols}x{board.rows} — count the inner corners (where four squares meet)")
+        smaller = _smaller_whole_grid(probe, board)
+        if smaller is not None:
+            return (f"board not found: the chessboard in view has {smaller[0]}x{smaller[1]} inner corners, not "
+                    f"{board.cols}x{board.rows} (the whole grid is in view, nothing cut off) — if that is your "
+                    f"board, use --board chessboard:{smaller[0]}x{smaller[1]}")
     if probe is not None and probe.n < board.n_corners:
         if probe.at_edge:
             return (f"board not found: only {probe.n} of {board.n_corners} inner corners in view "
@@ -410,6 +488,8 @@ def _detect_chessboard(grey: np.ndarray, board: ChessboardSpec, options: DetectO
         probe = _probe_partial(at(scales[0])) if options.diagnose else None
         if probe is not None and ((probe.n < board.n_corners and probe.at_edge) or _miscounted(probe, board)):
             return BoardDetection(False, reason=_not_found(grey, board, probe), image_size=(w, h), method=method)
+        if probe is not None and probe.grid is not None:
+            probe = _Probe(probe.n, probe.at_edge, _checked_grid(at(scales[0]), probe), probe.corners)
         for scale in scales[1:]:
             ok, c, method = classic(scale)
             if ok:
@@ -420,7 +500,8 @@ def _detect_chessboard(grey: np.ndarray, board: ChessboardSpec, options: DetectO
         ok, c = cv2.findChessboardCornersSB(at(up), pattern, flags=_SB_FLAGS)
         method, refine = "sb", False  # SB with ACCURACY is already sub-pixel
     if not ok or c is None:
-        return BoardDetection(False, reason=_not_found(grey, board, probe), image_size=(w, h), method=method)
+        return BoardDetection(False, reason=_not_found(grey, board, probe), image_size=(w, h), method=method,
+                              grid_seen=_smaller_whole_grid(probe, board))
     work = at(up)
     c = c.reshape(-1, 1, 2).astype(np.float32)
     if refine:
@@ -487,6 +568,20 @@ def _canonical_order(c: np.ndarray, board: ChessboardSpec, grey: Optional[np.nda
 
 def _chessboard_result(c: np.ndarray, board: ChessboardSpec, size, method,
                        grey: Optional[np.ndarray] = None) -> BoardDetection:
+    if grey is not None:
+        bad = _foreign_lines(grey, c, board.cols, board.rows)
+        if any(bad.values()):
+            # e.g. a 7x5 board in a tray described as 8x5: the tray's edge makes the extra column
+            cols = board.cols - bad["first col"] - bad["last col"]
+            rows = board.rows - bad["first row"] - bad["last row"]
+            which = " and ".join(("a row" if "row" in k else "a column") for k, v in bad.items() if v)
+            seen = (cols, rows) if cols >= 3 and rows >= 3 else None
+            hint = (f"the chessboard in view has {cols}x{rows} inner corners, not {board.cols}x{board.rows} — "
+                    f"if that is your board, use --board chessboard:{cols}x{rows}") if seen else \
+                "check --board (count the inner corners, where four squares meet)"
+            return BoardDetection(False, reason=f"board not found: {which} of the {board.cols}x{board.rows} corners "
+                                  f"found lies off the chessboard (an edge of the board, its tray or frame) — {hint}",
+                                  image_size=size, method=method, grid_seen=seen)
     c = _canonical_order(c, board, grey)
     return BoardDetection(True, c, np.arange(len(c), dtype=np.int32), method=method, image_size=size,
                           square_px=_square_px(c, board.cols))
@@ -637,17 +732,39 @@ def _verified_size(board: ChessboardSpec, pairs: Sequence, greys: Sequence[np.nd
     return False
 
 
-def suggest_board(images: Sequence[np.ndarray], board: BoardSpec, pairs: Optional[Sequence] = None) -> Optional[str]:
+def seen_grid(detections: Sequence[PairDetection]) -> Optional[tuple[int, int]]:
+    """The smaller whole chessboard every pair so far shows instead of the described one (each pair
+    has a view that found it, no view found another), else None."""
+    if not detections or any(d.ok for d in detections):
+        return None
+    grids = set()
+    for d in detections:
+        views = [v.grid_seen for v in (d.left, d.right) if v.grid_seen is not None]
+        if not views:
+            return None
+        grids.update(views)
+    return grids.pop() if len(grids) == 1 else None
+
+
+def suggest_board(images: Sequence[np.ndarray], board: BoardSpec, pairs: Optional[Sequence] = None,
+                  seen: Optional[tuple[int, int]] = None) -> Optional[str]:
     """When the board is never found: is it another size or kind? A hint for the user, or None.
 
-    Tries the chessboard counted by squares instead of inner corners (and the reverse, and one
-    count off), and looks for ArUco markers (a ChArUco board described as a chessboard, or another
-    dictionary). A size is only suggested when it is verified (``_verified_size``): with ``pairs``
-    (image arrays or paths, left and right) it must calibrate and pass the sanity checks.
+    Tries ``seen`` first (the whole, smaller chessboard the detections found instead, see
+    ``seen_grid``), then the chessboard counted by squares instead of inner corners (and the
+    reverse, and one count off), and looks for ArUco markers (a ChArUco board described as a
+    chessboard, or another dictionary). A size is only suggested when it is verified
+    (``_verified_size``): with ``pairs`` (image arrays or paths, left and right) it must calibrate
+    and pass the sanity checks.
     """
     greys = [_grey(im) for im in images[:3] if im is not None]
     if not greys:
         return None
+    if isinstance(board, ChessboardSpec) and seen is not None and sorted(seen) != sorted(board.grid):
+        if _verified_size(ChessboardSpec(seen[0], seen[1], board.square_m), pairs, greys):
+            return (f"this looks like a {seen[0]}x{seen[1]} board: every picture so far shows a whole chessboard "
+                    f"of {seen[0]}x{seen[1]} inner corners (and it calibrates) — use --board "
+                    f"chessboard:{seen[0]}x{seen[1]}")
     if isinstance(board, ChessboardSpec):
         for dc, dr, why in ((-1, -1, "counted squares instead of inner corners?"),
                             (1, 1, "counted inner corners of a bigger board?"),
@@ -723,6 +840,8 @@ class CalibrationOptions:
     min_tilt_spread_deg: float = 15.0  # the board's facing direction must vary this much over the pairs (°)
     max_fx_sigma: float = 0.03  # the focal length's relative 1-sigma uncertainty must stay below this
 
+    min_pairs_install: int = 6  # fewer used pairs is a failed check: a calibration to install needs this many
+
     def __post_init__(self) -> None:
         if self.distortion not in DISTORTION_MODELS:
             raise ValueError(f"distortion model {self.distortion!r}; valid: {', '.join(DISTORTION_MODELS)}")
@@ -734,6 +853,8 @@ class CalibrationOptions:
             raise ValueError(f"max_rejected_fraction = {self.max_rejected_fraction} is outside 0 … 0.9")
         if not (3 <= self.min_pairs <= 100):
             raise ValueError(f"min_pairs = {self.min_pairs} is outside 3 … 100")
+        if not (self.min_pairs <= self.min_pairs_install <= 100):
+            raise ValueError(f"min_pairs_install = {self.min_pairs_install} is outside min_pairs … 100")
         if not (0.1 <= self.max_rms_px <= 50):
             raise ValueError(f"max_rms_px = {self.max_rms_px} is outside 0.1 … 50 px")
 
@@ -769,6 +890,7 @@ class CalibrationReport:
     board: str = ""
     problems: tuple[str, ...] = ()  # failed sanity checks, each naming the problem and the fix; install only if empty
     checks: dict = field(default_factory=dict)  # the measured values the checks looked at (fov, distances, tilt …)
+    consequences: tuple[str, ...] = ()  # checks that failed only because of the problem above (said after it)
 
     @property
     def ok(self) -> bool:
@@ -819,6 +941,7 @@ class CalibrationReport:
             "rejected": [{"pair": p.name, "reason": p.reason} for p in self.rejected],
             "ok": self.ok,
             "problems": list(self.problems),
+            "consequences": list(self.consequences),
             "checks": {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.checks.items()},
             "out": out,
         }
@@ -847,6 +970,8 @@ class CalibrationReport:
             lines.append(f"  rejected {p.name}: {p.reason}")
         lines += [f"note: {n}" for n in self.notes]
         lines += [f"problem: {p}" for p in self.problems]
+        if self.consequences:
+            lines.append("  which also explains: " + "; ".join(self.consequences))
         verdict = rms_verdict(self.rms_stereo, self.epipolar_error_px)
         if verdict:
             lines.append(verdict)
@@ -905,7 +1030,7 @@ def _orient_pairs(detections: Sequence[PairDetection], active: list[int], board:
     compute that rotation, and keep the re-ordering that agrees with the most pairs (ties: keep the
     order the board's colours gave, then the smaller rotation). An upside-down camera thus gets its
     180° right instead of a garbage calibration. Returns (detections, {index: reason} for pairs that
-    fit no re-ordering, a note or "").
+    fit no re-ordering, a note or "", how many pairs were re-matched by a mirror — a mirrored camera).
     """
     syms = grid_symmetries(board.cols, board.rows)
     obj = board.object_points().astype(np.float64)
@@ -974,7 +1099,13 @@ def _orient_pairs(detections: Sequence[PairDetection], active: list[int], board:
     if turned:
         note = (f"the right view's corner order was re-matched ({', '.join(sorted(set(turned)))}) in "
                 f"{len(turned)} pair(s) so both views agree on the board's corners")
-    return out, odd, note
+    mirrored = sum(name in MIRROR_SYMMETRIES for name in turned)
+    return out, odd, note, mirrored
+
+
+# a re-ordering of the right view's grid that only a mirror image explains: a real board seen by two
+# real cameras always shows the same face, so its corners match by a turn, never by a mirror
+MIRROR_SYMMETRIES = ("mirror columns", "mirror rows", "transpose", "anti-transpose")
 
 
 FOV_DEG = (20.0, 120.0)  # a plausible horizontal field of view for a desk webcam (°)
@@ -983,6 +1114,10 @@ SAME_IMAGES_PX = 0.01  # left and right corners closer than this in every pair: 
 MIN_BASELINE_SQUARES = 0.05  # a baseline below this many squares is no stereo rig (nor is one above MAX_BASELINE_M)
 MAX_BASELINE_M = 1.0
 MAX_CAMERA_ROTATION_DEG = 45.0  # more between the two cameras' axes is not a side-by-side rig
+
+
+def _percent(rel: float) -> str:
+    return f"±{rel * 100:.1f} %" if math.isfinite(rel) else "an unknown amount (a calibration without some pair fails)"
 
 
 def _sanity_problems(calib: StereoCalibration, rvecs, tvecs, fx_sigma: tuple[float, float],
@@ -1030,11 +1165,21 @@ def _sanity_problems(calib: StereoCalibration, rvecs, tvecs, fx_sigma: tuple[flo
         spread = float(np.degrees(np.arccos(np.abs(cosines))).max())
         checks["tilt_spread_deg"] = spread
         checks["fx_sigma_rel"] = max(fx_sigma)
-        if spread < options.min_tilt_spread_deg or max(fx_sigma) > options.max_fx_sigma:
+        if spread < options.min_tilt_spread_deg:
             problems.append(
                 f"the board is tilted alike in every pair (its facing direction varies by {spread:.0f}°, need "
-                f"{options.min_tilt_spread_deg:.0f}°; focal length uncertain by ±{max(fx_sigma) * 100:.1f} %) — "
+                f"{options.min_tilt_spread_deg:.0f}°; focal length uncertain by {_percent(max(fx_sigma))}) — "
                 f"tilt the board more, fx cannot be pinned down: add pairs tilted ±30° left/right and up/down")
+        elif max(fx_sigma) > options.max_fx_sigma:
+            problems.append(
+                f"the focal length is uncertain by {_percent(max(fx_sigma))} (need ≤ {options.max_fx_sigma * 100:g} %: "
+                f"it moves that much when one pair is left out) — the {len(used)} pairs do not pin fx down: add "
+                f"pairs tilted ±30° left/right and up/down, near the image corners and at different distances")
+    if 0 < len(used) < options.min_pairs_install:
+        problems.append(
+            f"only {len(used)} pairs used — a calibration to install needs at least {options.min_pairs_install} "
+            f"(few pairs give a focal length off by several per cent): capture more pairs, tilted and spread over "
+            f"the image")
     # 5. the rig: baseline, which side the right camera is on, cameras facing the same way
     R = np.asarray(calib.R, np.float64)
     centre = -(R.T @ calib.T.reshape(3))  # the right camera's centre in camera_left (m)
@@ -1066,9 +1211,123 @@ def _sanity_problems(calib: StereoCalibration, rvecs, tvecs, fx_sigma: tuple[flo
     return problems, checks
 
 
+JACKKNIFE_GROUPS = 12  # more pairs are left out in this many groups (the cost stays ~12 calibrations a camera)
+
+
+def _jackknife_fx_sigma(obj, il, ir, image_size, flags, K1, K2) -> tuple[float, float]:
+    """Relative 1-sigma of each camera's fx from a (grouped) jackknife over the pairs: calibrate
+    with each group of pairs left out; sigma² = (g−1)/g · Σ (fx_i − mean)²."""
+    n = len(obj)
+    g_count = min(n, JACKKNIFE_GROUPS)
+    groups = [list(range(j, n, g_count)) for j in range(g_count)]  # pair j, j+g, j+2g … left out together
+    out = []
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 60, 1e-6)
+    for pts, K in ((il, K1), (ir, K2)):
+        fxs = []
+        for g in groups:
+            keep = [k for k in range(n) if k not in g]
+            try:
+                _, Kj, _, _, _ = cv2.calibrateCamera([obj[k] for k in keep], [pts[k] for k in keep], image_size,
+                                                     K.copy(), None, flags=flags | cv2.CALIB_USE_INTRINSIC_GUESS,
+                                                     criteria=criteria)
+                fxs.append(float(Kj[0, 0]))
+            except cv2.error:
+                fxs.append(math.inf)
+        fxs = np.array(fxs)
+        if len(fxs) < 2 or not np.all(np.isfinite(fxs)):
+            out.append(math.inf)
+            continue
+        m = len(fxs)
+        out.append(float(math.sqrt((m - 1) / m * float(((fxs - fxs.mean()) ** 2).sum()))) / max(1e-9, float(K[0, 0])))
+    return out[0], out[1]
+
+
+def _flipped(det: PairDetection, side: str, axis: int, image_size: tuple[int, int]) -> PairDetection:
+    """The pair as if one view's image were flipped about ``axis`` (0: x, left–right; 1: y)."""
+    size = image_size[axis]
+
+    def flip(p):
+        q = np.array(p, np.float32, copy=True)
+        q[:, axis] = size - 1 - q[:, axis]
+        return q
+
+    lp, rp = (flip(det.left_points), det.right_points) if side == "left" else (det.left_points, flip(det.right_points))
+    view = det.left if side == "left" else det.right
+    v = BoardDetection(True, lp if side == "left" else rp, view.ids, method=view.method, image_size=view.image_size,
+                       square_px=view.square_px)
+    left, right = (v, det.right) if side == "left" else (det.left, v)
+    return PairDetection(left, right, det.object_points, lp, rp, det.ids)
+
+
+def _mirrored_side(dets: Sequence[PairDetection], board: ChessboardSpec, image_size,
+                   options: CalibrationOptions) -> Optional[tuple[str, str]]:
+    """(camera, 'left–right' | 'top–bottom') whose flip makes a plausible rig of mirrored views, or None."""
+    for side in ("right", "left"):
+        for axis, what in ((0, "left–right"), (1, "top–bottom")):
+            try:
+                r = calibrate_stereo([_flipped(d, side, axis, image_size) for d in dets], image_size,
+                                     options=options, board=board, _diagnose=False)
+            except CalibrationFailed:
+                continue
+            c = r.checks
+            if (c.get("right_camera_x_m", -1.0) > 0 and c.get("camera_rotation_deg", 180.0) < MAX_CAMERA_ROTATION_DEG
+                    and r.rms_stereo <= options.max_rms_px):
+                return side, what
+    return None
+
+
+def _headline(problem: str) -> str:
+    """A failed check's first clause (what was measured, without the advice)."""
+    return problem.split(" — ")[0].split(" (")[0]
+
+
+def _root_cause(given: Sequence[PairDetection], detections: Sequence[PairDetection], active: list[int],
+                odd: dict, n_oriented: int, mirrored: int, board: ChessboardSpec, image_size,
+                options: CalibrationOptions, checks: dict) -> Optional[str]:
+    """A mistake that makes several sanity checks fail at once, said first and alone: one camera's
+    picture mirrored, or the left and right pictures paired off by one."""
+    if mirrored and mirrored * 2 >= len(active):
+        side = _mirrored_side([detections[k] for k in active], board, image_size, options)
+        who = (f"the {side[0]} camera's picture is mirrored ({side[1]})" if side else
+               "one camera's picture is mirrored against the other's")
+        ctrl = "vertical_flip" if side and side[1] == "top–bottom" else "horizontal_flip"
+        fix = (f"turn its mirror / flip setting off (the camera's 'mirror' option, or e.g. "
+               f"v4l2-ctl -d /dev/videoN -c {ctrl}=0)")
+        also = ""
+        if side and side[0] == "left":  # the same pictures as a mirrored right camera with the sides swapped
+            also = " (if the left and right pictures are also swapped, it is the other camera: add --swap)"
+        return (f"{who}: in {mirrored} of {len(active)} pairs the board's corners match between the views only "
+                f"as a mirror image, which no real pair of cameras sees — {fix}, then capture again{also}")
+    n = len(given)
+    if len(odd) >= max(2, 0.25 * n_oriented) or checks.get("baseline_m", 0.0) > MAX_BASELINE_M:
+        best = None
+        for shift in (1, -1):
+            ks = [k for k in range(n) if 0 <= k + shift < n and given[k].left.ok and given[k + shift].right.ok]
+            if len(ks) < options.min_pairs:
+                continue
+            shifted = [match_views(given[k].left, given[k + shift].right, board) for k in ks]
+            shifted_ok = [j for j, d in enumerate(shifted) if d.ok and d.image_size == image_size]
+            if len(shifted_ok) < options.min_pairs:
+                continue
+            _, odd_s, _, _ = _orient_pairs(shifted, shifted_ok, board, image_size)
+            fit = len(shifted_ok) - len(odd_s)
+            if best is None or fit > best[1]:
+                best = (shift, fit, len(shifted_ok))
+        fit_now = n_oriented - len(odd)
+        if best is not None and best[1] >= 0.8 * best[2] and best[1] >= fit_now + 2:
+            shift, fit, total = best
+            which = "next" if shift == 1 else "previous"
+            return (f"the left and right pictures are paired off by one: each left picture fits the {which} pair's "
+                    f"right picture ({fit} of {total} pairs fit the rig that way, {fit_now} of {n_oriented} as given) — "
+                    f"a picture is missing or extra on one side, or the numbering differs: pair the files by "
+                    f"capture time and calibrate again")
+    return None
+
+
 def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[tuple[int, int]] = None,
                      names: Optional[Sequence[str]] = None, options: CalibrationOptions = CalibrationOptions(),
-                     progress: Optional[ProgressFn] = None, board: Optional[BoardSpec] = None) -> CalibrationReport:
+                     progress: Optional[ProgressFn] = None, board: Optional[BoardSpec] = None,
+                     _diagnose: bool = True) -> CalibrationReport:
     """Calibrate both cameras and their pose from paired board detections.
 
     Pairs where a view failed are rejected with that view's reason; then calibrate, reject pairs
@@ -1123,8 +1382,11 @@ def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[t
             f"{options.min_pairs})" + (f" — {why}" if why else "") + " — check the board size "
             "(inner corners for a chessboard) and capture more pairs", results())
     notes: list[str] = []
+    given, odd, mirrored, n_oriented = list(detections), {}, 0, n_detected
     if isinstance(board, ChessboardSpec):
-        detections, odd, note = _orient_pairs(detections, active, board, image_size)
+        given = list(detections)
+        detections, odd, note, mirrored = _orient_pairs(detections, active, board, image_size)
+        n_oriented = len(active)
         for k, why in odd.items():
             reasons[k] = why
         active = [k for k in active if k not in odd]
@@ -1228,14 +1490,31 @@ def calibrate_stereo(detections: Sequence[PairDetection], image_size: Optional[t
         M1=K1, D1=D1.reshape(1, -1), M2=K2, D2=D2.reshape(1, -1), R=R, T=np.asarray(T).reshape(3, 1),
         image_size=image_size, rms_stereo=float(rms), epipolar_error_px=epipolar,
     )
+    if _diagnose and len(active) >= 3:
+        # how much fx moves when pairs are left out: the honest uncertainty with few pairs, where
+        # calibrateCamera's own sigma (which trusts the model) says ±1.5 % for a 10 % error
+        fx_jack = _jackknife_fx_sigma(obj, il, ir, image_size, flags, K1, K2)
+        fx_sigma = (max(fx_sigma[0], fx_jack[0]), max(fx_sigma[1], fx_jack[1]))
     problems, checks = _sanity_problems(calib, rvecs, tvecs, fx_sigma, [detections[k] for k in active], board,
                                         options)
+    consequences: list[str] = []
+    if problems and _diagnose and isinstance(board, ChessboardSpec):
+        root = _root_cause(given, detections, active, odd, n_oriented, mirrored, board, image_size, options, checks)
+        if root is None and checks.get("baseline_m", 1.0) < MIN_BASELINE_SQUARES * board.square_m:
+            root = next((p for p in problems if p.startswith("baseline ")), None)
+        if root is not None:
+            consequences = [_headline(p) for p in problems if p != root]
+            problems = [root]
+    if problems:
+        # where the cameras sit means nothing for a refused result (0 mm baseline, wrong pairs …)
+        notes = [n for n in notes if not n.startswith("the cameras sit one above the other")]
     report(1.0, "done")
     return CalibrationReport(
         calibration=calib, rms_left=math.sqrt(sq_l / n_pts), rms_right=math.sqrt(sq_r / n_pts),
         rms_stereo=float(rms), epipolar_error_px=epipolar, pairs=tuple(results(errors, epi, final=True)),
         distortion_model=model, notes=tuple(notes), duration_s=time.perf_counter() - t_start,
         board=board.text() if board is not None else "", problems=tuple(problems), checks=checks,
+        consequences=tuple(consequences),
     )
 
 
@@ -1385,12 +1664,16 @@ def gate_capture(detection: PairDetection, board: BoardSpec, captured: Sequence[
     ``manual`` (the snapshot button) skips the stillness and novelty tests, not the others.
     """
     reasons = []
-    if not detection.left.ok:
-        reasons.append("the left camera does not see the whole board" if isinstance(board, ChessboardSpec)
-                       else "the left camera does not see the board")
-    if not detection.right.ok:
-        reasons.append("the right camera does not see the whole board" if isinstance(board, ChessboardSpec)
-                       else "the right camera does not see the board")
+    for side, view in (("left", detection.left), ("right", detection.right)):
+        if view.ok:
+            continue
+        if view.grid_seen is not None and isinstance(board, ChessboardSpec):
+            c, r = view.grid_seen
+            reasons.append(f"the {side} camera sees a chessboard of {c}x{r} inner corners, not {board.cols}x{board.rows} "
+                           f"— if that is your board, choose {c}x{r}")
+        else:
+            reasons.append(f"the {side} camera does not see the whole board" if isinstance(board, ChessboardSpec)
+                           else f"the {side} camera does not see the board")
     if detection.left.ok and detection.right.ok and not detection.ok:
         reasons.append(detection.reason)
     if skew_s > params.max_skew_s:
@@ -1633,5 +1916,5 @@ __all__ = [
     "CalibrationFailed", "calibrate_stereo", "epipolar_errors", "PoseParams", "pose_params", "Coverage",
     "coverage_of", "GateParams", "GateResult", "gate_capture", "board_motion_px", "CapturedPair",
     "CalibrationSession", "read_session_board", "rectified_preview", "rms_verdict", "auto_distortion_model",
-    "suggest_board",
+    "suggest_board", "seen_grid",
 ]
