@@ -38,7 +38,7 @@ from app.workers import WorkerSet
 from core.detect.colour import DEFAULT_COLOURS, colour_from_pixel
 from core.messages import TargetMode
 from core.motion.jog import JogSpace, Jogger, JogTeleopSource, joint_display
-from core.motion.teleop import Box, TeleopController, make_hand_source, reachable_target_box
+from core.motion.teleop import COMMON_TARGET_BOX, Box, TeleopController, make_hand_source, reachable_target_box
 from core.motion.pick_place import PickPlaceSequence
 from core.vision.markers import default_markers
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
@@ -1538,8 +1538,11 @@ class MainWindow(QtWidgets.QMainWindow):
         box = getattr(current, "target_box", None)
         presets: list[tuple[str, Box]] = []
         try:
-            common = reachable_target_box(s.kinematics, self._teleop_margin)
+            common = reachable_target_box(s.kinematics, self._teleop_margin, box=Box(*COMMON_TARGET_BOX))
             presets = [("Every arm reaches", common), ("Half size", common.shrunk(0.5))]
+            own = reachable_target_box(s.kinematics, self._teleop_margin)  # the delta has its own
+            if own != common:
+                presets.insert(0, ("This arm's", own))
             larger = reachable_target_box(s.kinematics, self._teleop_margin, box=common.shrunk(1.5), tries=4)
             if larger != common:
                 presets.append(("Larger (this arm)", larger))
