@@ -177,7 +177,7 @@ def settings_path() -> Path:
     return user_dir("config") / ASSIST_SETTINGS_FILE
 
 
-_ASSIST_FIX = "fix or delete the file"
+_ASSIST_FIX = "using the defaults; fix or delete the file"
 
 
 def _assist_value(key: str, value):
@@ -232,7 +232,7 @@ def load_assist_settings(path: Optional[Path] = None) -> tuple[AssistSettings, l
     except FileNotFoundError:
         return AssistSettings(), []
     except UserFileError as exc:
-        return AssistSettings(), [f"{exc} — using the defaults"]
+        return AssistSettings(), [str(exc)]
     settings, warnings = AssistSettings(), []
     for key, value in data.items():
         if key not in AssistSettings.__dataclass_fields__:
