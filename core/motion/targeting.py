@@ -24,6 +24,7 @@ from core.motion.safety import require_finite, require_finite_number
 from core.motion.trajectory import PointToPoint, straight_move
 from core.settings import LissajousParams, check_range
 
+CUP_LIFTED_M = 0.05  # a cup marker this far above the lowest cup marker is a lifted cup
 _RPY = ("roll", "pitch", "yaw")
 
 
@@ -725,16 +726,26 @@ class Targeter:
         return Goal(self._seq.next(), t, as_point(p), mode, source_t, note=note)
 
     def _update_ball_cup(self, result: Optional[PerceptionResult]) -> None:
-        """When the ball is visible, the cup nearest to it (in the left image) hides it next."""
+        """When the ball is visible, the cup that hides it next: the lifted cup (the ball is shown
+        by lifting its cup), else the cup nearest to it in the left image.
+
+        Nearest alone was wrong for most of each show: a lifted cup's marker rises ~15 cm above
+        the ball in the image while the other cup's marker, on the desk, stays beside it (the
+        cups score of ``deskarm --headless --scenario cups`` found it)."""
         if result is None or result.ball_left_px is None:
             return
         bx, by = result.ball_left_px
+        cups = [m for m in result.markers if m.marker_id in self.cup_ids and m.found and m.left_corners]
+        heights = [m.base_p_centre[2] for m in cups if m.base_p_centre is not None]
+        if heights:
+            resting = min(heights)
+            lifted = [m for m in cups if m.base_p_centre is not None and m.base_p_centre[2] > resting + CUP_LIFTED_M]
+            cups = lifted or cups
         best, best_d = None, float("inf")
-        for m in result.markers:
-            if m.marker_id in self.cup_ids and m.found and m.left_corners:
-                cx, cy = np.mean(np.asarray(m.left_corners), axis=0)
-                d = math.hypot(cx - bx, cy - by)
-                if d < best_d:
-                    best, best_d = m.marker_id, d
+        for m in cups:
+            cx, cy = np.mean(np.asarray(m.left_corners), axis=0)
+            d = math.hypot(cx - bx, cy - by)
+            if d < best_d:
+                best, best_d = m.marker_id, d
         if best is not None:
             self.ball_cup_id = best

@@ -50,6 +50,22 @@ def test_cups_mode_follows_the_cup_the_ball_was_seen_near():
     assert t.ball_cup_id == 50 and np.allclose(g.base_p_target[0], 0.0)
 
 
+def test_cups_mode_takes_the_lifted_cup_when_the_ball_shows_under_it():
+    """The ball is shown by lifting its cup: that cup's marker rises ~15 cm above the ball in the
+    image while the other cup, on the desk, sits nearer the ball in the image — nearest was wrong
+    for most of each show (the headless cups score found it: 0.79 right, now 0.92)."""
+    t = Targeter(SimClock(), mode=TargetMode.CUPS, cup_ids=(23, 50))
+    lifted = seen(50, (0.0, 0.20, 0.16), corners=((260, 100), (280, 100), (280, 120), (260, 120)))  # far in the image
+    resting = seen(23, (0.08, 0.18, 0.03), corners=((400, 215), (420, 215), (420, 235), (400, 235)))  # near it
+    goal = t.update(result([lifted, resting], ball=(286.0, 260.0)))
+    assert t.ball_cup_id == 50 and goal.valid, goal.note
+    # with no cup lifted, the nearest cup in the image, as before
+    t2 = Targeter(SimClock(), mode=TargetMode.CUPS, cup_ids=(23, 50))
+    down = seen(50, (0.0, 0.20, 0.03), corners=((260, 100), (280, 100), (280, 120), (260, 120)))
+    t2.update(result([down, resting], ball=(286.0, 260.0)))
+    assert t2.ball_cup_id == 23
+
+
 def test_ball_finder_finds_a_red_disc():
     import cv2
 
