@@ -1145,6 +1145,15 @@ def _sanity_problems(calib: StereoCalibration, rvecs, tvecs, fx_sigma: tuple[flo
                 f"(plausible: {lo:.0f}–{hi:.0f}°{'' if options.wide else ', or use --wide for wide-angle lenses'}) — "
                 f"the poses do not pin the focal length down: tilt the board more (±30° about both axes), "
                 f"fill more of the image, and check the board size")
+    # 2b. a lens distortion that folds or throws away the image border (D1 = [1e6, …]) — the same
+    # check the calibration file gets when it is loaded, so nothing is installed that a start refuses
+    from core.vision.calibration import distortion_problem
+
+    for side, M, D in (("left", calib.M1, calib.D1), ("right", calib.M2, calib.D2)):
+        why = distortion_problem(M, D, calib.image_size)
+        if why:
+            problems.append(f"the {side} lens distortion {why} — add pairs with the board near the image "
+                            "corners, or use a simpler distortion model")
     # 3. the board's distances (a wrong focal length or square size puts it centimetres away)
     dist = np.array([float(np.linalg.norm(np.asarray(t).reshape(3))) for t in tvecs])
     if board is not None and len(dist):

@@ -54,3 +54,17 @@ def test_the_real_webcam_calibration_is_plausible_and_loads(tmp_path):
     assert distortion_problem(calib.M2, calib.D2, calib.image_size) == ""
     back = load_calibration(save_calibration(tmp_path / "real.yaml", calib))
     np.testing.assert_allclose(back.D1, calib.D1)
+
+
+def test_a_calibration_run_with_such_a_distortion_is_not_installable(sim):
+    """The wizard's and ``deskarm calibrate``'s sanity checks refuse it too, so nothing is installed
+    that the next start would refuse."""
+    from core.vision.stereo_calibration import CalibrationOptions, _sanity_problems
+
+    rvecs = [np.zeros(3)] * 3
+    tvecs = [np.array([0.0, 0.0, 0.5])] * 3
+    bad = replace(sim, D1=np.array([[1e6, 0, 0, 0, 0]], float))
+    problems, _ = _sanity_problems(bad, rvecs, tvecs, (0.01, 0.01), [], None, CalibrationOptions())
+    assert any(p.startswith("the left lens distortion moves the image border") for p in problems), problems
+    good, _ = _sanity_problems(sim, rvecs, tvecs, (0.01, 0.01), [], None, CalibrationOptions())
+    assert not any("lens distortion" in p for p in good), good
