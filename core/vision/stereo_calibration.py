@@ -98,7 +98,7 @@ class CharucoSpec:
     squares_y: int  # squares along y, 3 … 40
     square_m: float  # side of one square (m), 0.002 … 0.5
     marker_m: float  # side of one ArUco marker (m), smaller than square_m
-    dictionary: str = "DICT_4X4_50"  # one of cv2.aruco's DICT_* names
+    dictionary: str = "DICT_4X4_50"  # one of cv2.aruco's DICT_* names, or a dictionary file's path
     legacy: bool = False  # the layout of OpenCV < 4.6 (boards printed by older tools, even squares_y)
 
     kind: ClassVar[str] = "charuco"
@@ -115,10 +115,16 @@ class CharucoSpec:
                 f"charuco marker size {self.marker_m!r} m must be smaller than the square "
                 f"({self.square_m:g} m) and at least a fifth of it"
             )
-        if self.dictionary not in ARUCO_DICTIONARY_NAMES:
-            raise BoardError(f"unknown ArUco dictionary {self.dictionary!r}; valid: {', '.join(ARUCO_DICTIONARY_NAMES)}")
+        from core.vision.perception import is_dictionary_file
+
+        if self.dictionary not in ARUCO_DICTIONARY_NAMES and not is_dictionary_file(self.dictionary):
+            raise BoardError(f"unknown ArUco dictionary {self.dictionary!r}; valid: {', '.join(ARUCO_DICTIONARY_NAMES)} "
+                             f"or a dictionary file (cv2.aruco writeDictionary's YAML)")
         markers = self.squares_x * self.squares_y // 2
-        size = _dictionary(self.dictionary).bytesList.shape[0]
+        try:
+            size = _dictionary(self.dictionary).bytesList.shape[0]
+        except ValueError as exc:  # a dictionary file that cannot be read: its own one-line message
+            raise BoardError(str(exc)) from None
         if markers > size:
             raise BoardError(
                 f"charuco {self.squares_x}x{self.squares_y} needs {markers} markers but {self.dictionary} "
@@ -164,7 +170,10 @@ def _grid_points(cols: int, rows: int, square: float, origin: float) -> np.ndarr
 
 @functools.lru_cache(maxsize=32)
 def _dictionary(name: str):
-    return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
+    """A predefined dictionary (DICT_* name) or a dictionary file's (cv2.aruco writeDictionary)."""
+    from core.vision.perception import aruco_dictionary
+
+    return aruco_dictionary(name)
 
 
 @functools.lru_cache(maxsize=16)

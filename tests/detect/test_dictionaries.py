@@ -139,3 +139,25 @@ def test_a_changed_dictionary_file_is_read_again(tmp_path):
     cv2.aruco.Dictionary(base.bytesList[:5], 4, 1).writeDictionary(storage)
     storage.release()
     assert np.asarray(read_dictionary_file(path).bytesList).shape[0] == 5
+
+
+def test_a_charuco_board_of_a_custom_dictionary_file_calibrates_like_a_named_one(tmp_path):
+    """The calibration's ChArUco boards take a dictionary file as well (issue 25 item 15:
+    custom dictionaries were refused everywhere): the board from DICT_4X4_50's first 12 markers,
+    written as a file, is found in OpenCV's own picture of it, corner for corner."""
+    from core.vision.stereo_calibration import BoardError, CharucoSpec, detect_board
+
+    base = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
+    path = tmp_path / "my_board_dict.yml"
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    cv2.aruco.Dictionary(base.bytesList[:12], 4, 1).writeDictionary(storage)
+    storage.release()
+    named = CharucoSpec(6, 4, 0.03, 0.022, "DICT_4X4_50")
+    custom = CharucoSpec(6, 4, 0.03, 0.022, str(path))
+    picture = named.cv_board().generateImage((600, 400), marginSize=40, borderBits=1)
+    picture = cv2.cvtColor(picture, cv2.COLOR_GRAY2BGR)
+    a, b = detect_board(picture, named), detect_board(picture, custom)
+    assert a.ok and b.ok and b.n == named.n_corners, (a.reason, b.reason)
+    assert np.array_equal(a.ids, b.ids) and np.allclose(a.corners, b.corners, atol=1e-3)
+    with pytest.raises(BoardError, match="needs 15 markers but .* has only 12"):  # too small for a 6x5 board
+        CharucoSpec(6, 5, 0.03, 0.022, str(path))
