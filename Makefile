@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup run test bench firmware-test clean install-desktop
+.PHONY: setup run test bench bench-full firmware-test clean install-desktop
 
 setup: $(STAMP)
 
@@ -43,8 +43,12 @@ $(VENV)/.bench-installed: $(STAMP)
 	fi
 	@touch $@
 
+# a few minutes; bench-full takes the long runs (about 20 minutes on 2 cores)
 bench: $(VENV)/.bench-installed
 	QT_QPA_PLATFORM=offscreen $(PY) -m bench
+
+bench-full: $(VENV)/.bench-installed
+	QT_QPA_PLATFORM=offscreen $(PY) -m bench --full
 
 clean:
 	rm -rf $(VENV) build *.egg-info
