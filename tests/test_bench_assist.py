@@ -2,6 +2,8 @@
 rows are compared with the render baseline measured in the same frames."""
 from bench import bench_assist
 
+HUNG_S = 600.0  # a child still running after this long has hung (a loaded 2-core machine is slow, not broken)
+
 
 def test_assist_rows_have_samples_and_a_baseline():
     rows = bench_assist.rows(quick=True)
@@ -16,6 +18,8 @@ def test_assist_rows_have_samples_and_a_baseline():
 def test_the_assist_window_child_samples_cpu_and_frames():
     from bench import bench_assist_window
 
-    r = bench_assist_window.measure("choosing", 1.0)
+    # the child starts sampling after its first frames and each sample waits for a frame, however slow a
+    # loaded machine is; the time-out only ends a hung child
+    r = bench_assist_window.measure("choosing", 1.0, timeout_s=HUNG_S)
     assert len(r["cpu_pct"]) == 1 and r["cpu_pct"][0] > 0
     assert r["frames_fps"][0] > 0  # the live view kept coming while the user chooses
