@@ -8,6 +8,12 @@
 
 The "wander" scenario moves its markers, so frames are rarely repeated (a repeated frame reuses
 its JPEGs and costs nearly nothing): the per-frame cost is the real one.
+
+A still desk ("static"): the loop's fps with and without recording, and megabytes per second of
+recording, against the same run recording with ``still=False`` (every pair encoded, chunks
+uncompressed: what the recorder did before a still pair re-used the last JPEGs) as the baseline.
+The first second of the simulated desk is not still (its noise settles), so these runs last
+at least STILL_S.
 """
 from __future__ import annotations
 
@@ -20,17 +26,19 @@ import numpy as np
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
 
 SCENARIO = "wander"
+STILL_SCENARIO = "static"
+STILL_S = 6.0  # seconds of each still-desk run at least
 
 
-def paced_run(duration_s: float, record_to: Path | None):
+def paced_run(duration_s: float, record_to: Path | None, scenario: str = SCENARIO, **recorder_kwargs):
     """(metrics, recorder or None) of a headless run paced at 30 fps on the simulated desk."""
     from app.headless import HeadlessRunner
     from core.record.recorder import Recorder
 
-    session = DeskSession.create(SessionOptions(camera="sim", scenario=SCENARIO))
+    session = DeskSession.create(SessionOptions(camera="sim", scenario=scenario))
     recorder = None
     if record_to is not None:
-        recorder = Recorder.for_session(session, record_to)
+        recorder = Recorder.for_session(session, record_to, **recorder_kwargs)
         recorder.start(session.calibration, session.perception.base_T_camera, session.bridge.is_estopped)
     runner = HeadlessRunner(session, duration_s, recorder=recorder)
     freeze_startup_objects()
@@ -92,6 +100,38 @@ def rows(quick: bool = False) -> list[dict]:
     out.append({"name": f"record: MB per minute at 30 fps ({SCENARIO})", "unit": "", "samples": [mb_min],
                 "baseline": None, "extra": f"{size / 1e6:.1f} MB for {recorded.sim_s:.1f} s, JPEG quality "
                                            f"{rec.jpeg_quality}, both cameras, every topic"})
+    return out + still_rows(duration)
+
+
+def still_rows(duration: float) -> list[dict]:
+    """A still desk: loop fps with and without recording; MB/s with still pairs re-used vs every pair encoded."""
+    from core.record.recorder import folder_size
+
+    duration = max(duration, STILL_S)
+    plain, _ = paced_run(duration, None, STILL_SCENARIO)
+    runs = {}
+    for still in (False, True):
+        with tempfile.TemporaryDirectory(prefix="deskarm-bench-record-") as tmp:
+            metrics, rec = paced_run(duration, Path(tmp) / "bench", STILL_SCENARIO, still=still)
+            runs[still] = (metrics, rec, folder_size(Path(tmp) / "bench"))
+    fps_plain = plain.frames / plain.wall_s
+    metrics, rec, size = runs[True]
+    fps_rec = metrics.frames / metrics.wall_s
+    tag = f"still desk ({STILL_SCENARIO})"
+    base_mb = f"record: MB/s, {tag}, as before (every pair, no zstd)"
+    out = [
+        {"name": f"record: loop fps, paced 30 fps, not recording ({STILL_SCENARIO})", "unit": "", "samples": [fps_plain],
+         "baseline": None, "extra": f"{plain.frames} frames in {plain.wall_s:.1f} s"},
+        {"name": f"record: loop fps, paced 30 fps, recording ({STILL_SCENARIO})", "unit": "", "samples": [fps_rec],
+         "baseline": None, "extra": f"{fps_rec / fps_plain:.3f}x the fps without recording (the same {duration:g} s run)"},
+    ]
+    for still, name in ((False, base_mb), (True, f"record: MB/s, {tag}, still pairs re-use their JPEGs")):
+        m, r, sz = runs[still]
+        mb_s = sz / 1e6 / m.sim_s if m.sim_s > 0 else float("nan")
+        costs = list(r.frame_costs_ms) or [float("nan")]
+        out.append({"name": name, "unit": "", "samples": [mb_s], "baseline": None if not still else base_mb, "less": "less",
+                    "extra": f"{sz / 1e6:.2f} MB for {m.sim_s:.1f} s; {r.frames_written} frames, {r.frames_still} "
+                             f"re-used, {r.frames_dropped} dropped; recorder thread p50 {np.median(costs):.2f} ms/frame"})
     return out
 
 

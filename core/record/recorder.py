@@ -3,7 +3,11 @@
 The loop (headless runner, window workers) calls ``frame``, ``result``, ``command``, ``state``,
 ``estop`` and ``calibration``: each is a put on a bounded queue and returns at once. The
 recorder's thread encodes the JPEGs, converts (``core.record.topics``) and writes
-(``core.record.writer``). When the loop outruns the disk, the oldest queued image pair is
+(``core.record.writer``). A still scene costs little: an image pair equal to the last one
+encoded within sensor noise (``blocks_changed``) is not encoded again but written with that
+pair's JPEG bytes, which the MCAP chunk's zstd compression stores about once per chunk
+(``frames_still`` counts them; every frame keeps its image messages, the replay repeats the
+arrays without decoding). When the loop outruns the disk, the oldest queued image pair is
 dropped (``frames_dropped``); when the disk fails (full, unplugged), recording stops with
 ``error`` naming the path and the loop goes on.
 
@@ -29,6 +33,8 @@ from core.paths import os_error_reason, user_dir
 from core.record import topics as tp
 from core.record.writer import STATE_COMPLETE, BagWriter
 
+STILL_SCALE = 4  # a still check compares images averaged over STILL_SCALE x STILL_SCALE pixel blocks…
+STILL_LEVELS = 6  # …and finds no block changed by more than this (0…255): sensor noise averages out, a moving edge does not
 SMALL_QUEUE_FACTOR = 32  # queued non-image messages allowed per queued image pair before the oldest go
 COST_SAMPLES = 4096  # per-frame recorder costs kept (ms), for the bench
 _STOP = object()
@@ -107,11 +113,14 @@ class Recorder:
 
     Every public method but ``start``/``close`` is a non-blocking queue put. ``clock`` stamps
     messages that carry no time of their own (estop, calibration, session); ``joint_names``
-    names the joints; ``fk`` gives the tool pose for /tf (none: no /tf).
+    names the joints; ``fk`` gives the tool pose for /tf (none: no /tf). ``still=False`` records
+    as before still pairs were re-used: every changed pair encoded, chunks uncompressed (the
+    bench's baseline).
     """
 
     def __init__(self, path, session_info: dict, jpeg_quality: int = 85, queue_size: int = 64, *,
-                 clock=None, joint_names: Sequence[str] = (), fk: Optional[Callable] = None) -> None:
+                 clock=None, joint_names: Sequence[str] = (), fk: Optional[Callable] = None,
+                 still: bool = True) -> None:
         if not 1 <= int(jpeg_quality) <= 100:
             raise ValueError(f"jpeg_quality = {jpeg_quality}: expected 1…100")
         if int(queue_size) < 1:
@@ -141,7 +150,10 @@ class Recorder:
         self._last_goal_seq: Optional[int] = None
         self._last_state_seq: Optional[int] = None
         self._jpeg_cache = (None, None, b"", b"")  # (left array, right array, jpeg left, jpeg right)
+        self.still = bool(still)  # False: encode every pair that is not the very same arrays, chunks uncompressed
+        self._encoded_blocks = None  # (left, right) ``_blocks`` of the pair the JPEG cache holds
         self.frames_written = 0
+        self.frames_still = 0  # of those, pairs equal to the last encoded within noise: its JPEGs reused
         self.frames_dropped = 0  # image pairs dropped because the queue was full
         self.messages_dropped = 0  # other messages dropped (a queue full of them)
         self.frame_costs_ms: deque = deque(maxlen=COST_SAMPLES)  # JPEG + write per frame, in the thread
@@ -183,7 +195,8 @@ class Recorder:
         if self._thread is not None:
             raise RuntimeError("Recorder.start() called twice")
         bag = BagWriter(self.path, custom_data={"deskarm_started": datetime.now().isoformat(timespec="seconds"),
-                                                "deskarm_robot": str(self.session_info.get("robot", ""))})
+                                                "deskarm_robot": str(self.session_info.get("robot", ""))},
+                        compress=self.still)
         try:
             bag.open()
         except OSError as exc:
@@ -363,7 +376,10 @@ class Recorder:
     def _write_frame(self, bag: BagWriter, frame) -> None:
         last_left, last_right, jl, jr = self._jpeg_cache
         if not (frame.left is last_left and frame.right is last_right):  # a repeated frame re-uses its JPEGs
-            jl, jr = self._jpeg(frame.left), self._jpeg(frame.right)
+            if self._still(frame):
+                self.frames_still += 1  # the same JPEG bytes again: zstd stores them once per chunk
+            else:
+                jl, jr = self._jpeg(frame.left), self._jpeg(frame.right)
             self._jpeg_cache = (frame.left, frame.right, jl, jr)
         t, ns = frame.t, tp.time_ns(frame.t)
         bag.write(tp.CAMERA_LEFT_IMAGE, ns, tp.compressed_image(jl, t, tp.FRAME_CAMERA_LEFT))
@@ -372,11 +388,37 @@ class Recorder:
             bag.write(tp.TRUTH_MARKERS, ns, tp.truth_marker_array(frame.truth, t))
         self.frames_written += 1
 
+    def _still(self, frame) -> bool:
+        """True when both images equal the pair the JPEG cache holds within sensor noise
+        (``blocks_changed``); otherwise the frame's blocks become the ones to compare with."""
+        if not self.still:
+            return False
+        left, right = _blocks(frame.left), _blocks(frame.right)
+        last = self._encoded_blocks
+        if last is not None and not blocks_changed(last[0], left) and not blocks_changed(last[1], right):
+            return True
+        self._encoded_blocks = (left, right)
+        return False
+
     def _jpeg(self, image: np.ndarray) -> bytes:
         ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
         if not ok:
             raise ValueError(f"JPEG encoding failed for an image of shape {image.shape}")
         return buf.tobytes()
+
+
+def _blocks(image: np.ndarray) -> np.ndarray:
+    """The image averaged over STILL_SCALE x STILL_SCALE pixel blocks (what ``blocks_changed`` compares)."""
+    h, w = image.shape[:2]
+    size = (max(1, w // STILL_SCALE), max(1, h // STILL_SCALE))
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+
+
+def blocks_changed(a: np.ndarray, b: np.ndarray, levels: int = STILL_LEVELS) -> bool:
+    """Whether two ``_blocks`` differ anywhere by more than ``levels`` (or in shape)."""
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return True
+    return bool(cv2.absdiff(a, b).max() > levels)
 
 
 def _calibration_from_yaml(text):

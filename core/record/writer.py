@@ -48,6 +48,18 @@ def _qos(transient_local: bool) -> Qos:
                zero, zero, QosLiveliness.AUTOMATIC, zero, False)
 
 
+def _compress_chunks(writer: Writer) -> None:
+    """zstd on each MCAP chunk (every MCAP reader decodes it): a still scene's repeated JPEG bytes
+    (core.record.recorder) take a few bytes after their first copy in a chunk; JPEGs themselves
+    barely shrink. A rosbags without storage compression writes uncompressed chunks."""
+    try:
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode
+
+        writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    except (ImportError, AttributeError):  # pragma: no cover - older rosbags
+        pass
+
+
 class BagWriter:
     """One rosbag2 folder (MCAP storage) with the recording's topics; not thread-safe (one writer thread).
 
@@ -55,8 +67,9 @@ class BagWriter:
     """
 
     def __init__(self, path: str | os.PathLike, custom_data: Optional[dict[str, str]] = None,
-                 flush_s: float = FLUSH_S) -> None:
+                 flush_s: float = FLUSH_S, compress: bool = True) -> None:
         self.path = Path(path)
+        self.compress = bool(compress)  # zstd on each chunk (``_compress_chunks``)
         self.flush_s = float(flush_s)
         self.custom_data = {str(k): str(v) for k, v in (custom_data or {}).items()}
         self._writer: Optional[Writer] = None
@@ -73,6 +86,8 @@ class BagWriter:
         """Create the folder, register every topic, write the provisional metadata.yaml."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
         writer = Writer(self.path, version=ROSBAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        if self.compress:
+            _compress_chunks(writer)
         writer.open()
         self._writer = writer
         for key, value in self.custom_data.items():
