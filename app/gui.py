@@ -988,7 +988,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         else:
             m, sec = divmod(int(r.elapsed_s), 60)
-            text = f"■ {m}:{sec:02d}\n{r.bytes_written / 1e6:.0f} MB"
+            text = f"■ {m}:{sec:02d}\n{r.file_bytes / 1e6:.0f} MB"  # on disk, not before compression
             if r.frames_dropped:
                 text += f" · {r.frames_dropped} lost"
         if self.record_button.text() != text:

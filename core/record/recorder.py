@@ -176,6 +176,11 @@ class Recorder:
         return self._bag.bytes_written if self._bag is not None else 0
 
     @property
+    def file_bytes(self) -> int:
+        """What the recording takes on disk now (its chunks are compressed: less than ``bytes_written``)."""
+        return self._bag.file_bytes if self._bag is not None else 0
+
+    @property
     def elapsed_s(self) -> float:
         """Wall seconds since ``start`` (until ``close``)."""
         if self._t_start is None:

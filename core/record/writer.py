@@ -82,6 +82,14 @@ class BagWriter:
     def mcap_path(self) -> Path:
         return self.path / f"{self.path.name}.mcap"
 
+    @property
+    def file_bytes(self) -> int:
+        """The .mcap's size on disk now (compressed chunks flushed so far; 0 before the first)."""
+        try:
+            return self.mcap_path.stat().st_size
+        except OSError:
+            return 0
+
     def open(self) -> None:
         """Create the folder, register every topic, write the provisional metadata.yaml."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
