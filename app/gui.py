@@ -754,6 +754,9 @@ class MainWindow(QtWidgets.QMainWindow):
                 self._show_note(NO_DETECTOR_HINT)
         if TargetMode(mode) is TargetMode.TELEOP:
             self._teleop_ensure_controller()
+            hint = teleop_hint(self.session, self.teleop_panel.source)
+            if hint:
+                self._show_note(hint)
 
     @QtCore.Slot(object)
     def on_manual_target(self, p) -> None:
@@ -1947,6 +1950,15 @@ def cups_hint(session) -> str:
         return ("cups game: put a red ball on the desk in view of both cameras and cover it "
                 "with one of the marked cups; the arm points at the cup hiding it")
     return ""
+
+
+def teleop_hint(session, source: Optional[str]) -> str:
+    """Why Teleop will wait for ever here, in plain words ("" when a hand can be seen): the
+    simulated desk shows a hand only in its teleop scenario; the keyboard needs none."""
+    if source == KEYBOARD_SOURCE or not session.is_simulated_camera or session.options.scenario == "teleop":
+        return ""
+    return ("teleop: this simulated scene has no hand in view, so calibrating waits — restart with "
+            "`deskarm --scenario teleop`, or choose Keyboard (jog keys) as the hand")
 
 
 def list_port_choices() -> list[tuple[str, str]]:

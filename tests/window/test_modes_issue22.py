@@ -144,3 +144,23 @@ def test_the_scene_starts_over_when_the_window_is_up_so_a_slow_start_misses_no_c
         assert band == pytest.approx(TeleopScenario.ENTRY, abs=0.002)  # the scene's start, not 4 s in
     finally:
         session.close()
+
+
+def test_choosing_teleop_on_a_simulated_scene_without_a_hand_says_why_it_waits(qtbot):
+    """Chosen by hand on the plain simulated desk, Teleop waited at "calibrating" without a word:
+    one plain line now says there is no hand and what to do; the teleop scenario gets none."""
+    from app.gui import MainWindow, teleop_hint
+    from core.session import DeskSession, SessionOptions
+
+    for scenario, expect in (("static", True), ("teleop", False)):
+        w = MainWindow(DeskSession.create(SessionOptions(camera="sim", scenario=scenario)))
+        qtbot.addWidget(w)
+        w.resize(800, 480)
+        w.show()
+        try:
+            qtbot.mouseClick(w.target_panel.mode_buttons["teleop"], QtCore.Qt.MouseButton.LeftButton)
+            said = "no hand in view" in w.banner.text()
+            assert said is expect, (scenario, w.banner.text())
+            assert bool(teleop_hint(w.session, "marker:23")) is expect and teleop_hint(w.session, "keyboard") == ""
+        finally:
+            w.stop()
