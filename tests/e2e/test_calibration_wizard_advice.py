@@ -10,9 +10,10 @@ import pytest
 from PySide6 import QtCore
 
 import widgets  # noqa: F401  (row-major images)
-from app.calibration_worker import CalibrationController, ReportUpdate
+from app.calibration_worker import ReportUpdate
 from core.vision.calibration import installed_calibration_path
 from core.vision.stereo_calibration import ChessboardSpec, calibrate_stereo, detect_pair
+from tests.window.test_calibration_wizard import wizard_rig
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "stereo_7x5_320x240"
 BOARD = ChessboardSpec(7, 5, 0.025)
@@ -30,16 +31,8 @@ def mirrored_report():
 
 @pytest.fixture
 def rig(qtbot, tmp_path, monkeypatch):
-    monkeypatch.setenv("DESKARM_HOME", str(tmp_path / "home"))
-    ctl = CalibrationController(sessions_root=tmp_path / "sessions", board=BOARD, min_interval_s=0.0)
-    wizard = ctl.open()
-    worker = ctl.worker
-    with qtbot.waitSignal(worker.sigSession, timeout=TIMEOUT_MS):
-        qtbot.mouseClick(wizard.start_button, LEFT)
-    qtbot.waitUntil(lambda: wizard.session_id is not None, timeout=TIMEOUT_MS)
-    yield ctl, wizard
-    ctl.close()
-    assert worker.isFinished(), "the calibration worker must be stopped and joined"
+    """An open wizard for BOARD (the real 7x5 photos' board), closed and joined at the end."""
+    yield from wizard_rig(qtbot, tmp_path, monkeypatch, BOARD)
 
 
 def test_the_wizard_says_mirrored_first_and_its_consequences_after_it(qtbot, rig, mirrored_report):

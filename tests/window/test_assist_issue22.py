@@ -26,40 +26,13 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from app.assist_window import AssistSettings, AssistWindow
 from xserver import WAIT_S, why_no_xvfb, x_server
 
-from tests.window.test_assist_window import TIMEOUT_MS, FakeClock, sim_loop, wait_for_press
+from tests.window.test_assist_window import TIMEOUT_MS, make_window, wait_for_press  # noqa: F401 (make_window: the fixture)
 from widgets._style import TOUCH_PX
 
 REPO = Path(__file__).resolve().parents[2]
 LEFT, RIGHT = QtCore.Qt.MouseButton.LeftButton, QtCore.Qt.MouseButton.RightButton
 SPACE = QtCore.Qt.Key.Key_Space
 SUBPROCESS_TIMEOUT_S = 120
-
-
-@pytest.fixture
-def make_window(qtbot):
-    """An AssistWindow on the simulated desk (sim clock), shown at 800x480, boxes offered."""
-    windows = []
-
-    def make(mode="touch", **settings):
-        clock = FakeClock()
-        w = AssistWindow(sim_loop, worker_clock="sim", clock=clock)
-        w.set_settings(AssistSettings(mode=mode, **settings))
-        w._scan_timer.setInterval(3_600_000)  # the test ticks the scan itself (on the fake clock)
-        qtbot.addWidget(w)
-        w.resize(800, 480)
-        w.show()
-        qtbot.waitExposed(w)
-        texts = []
-        w.sigStateText.connect(texts.append)
-        w.start()
-        qtbot.waitUntil(lambda: w.choosing, timeout=TIMEOUT_MS)
-        windows.append(w)
-        return w, clock, texts
-
-    yield make
-    for w in windows:
-        w.stop()
-        assert w.worker.isFinished() and not w.worker.isRunning()
 
 
 def rect_in(w, widget) -> QtCore.QRect:

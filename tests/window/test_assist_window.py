@@ -48,6 +48,7 @@ def make_window(qtbot):
         qtbot.addWidget(w)
         w.resize(800, 480)
         w.show()
+        qtbot.waitExposed(w)
         texts = []
         w.sigStateText.connect(texts.append)
         w.start()
@@ -58,6 +59,7 @@ def make_window(qtbot):
     yield make
     for w in windows:
         w.stop()
+        assert w.worker.isFinished() and not w.worker.isRunning()
         assert w.worker.isFinished() and not w.worker.isRunning()
 
 

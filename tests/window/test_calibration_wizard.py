@@ -68,8 +68,13 @@ def still_frames(poses):
 @pytest.fixture
 def rig(qtbot, tmp_path, monkeypatch):
     """An open wizard with its worker, a session started for BOARD; closed and joined at the end."""
+    yield from wizard_rig(qtbot, tmp_path, monkeypatch, BOARD)
+
+
+def wizard_rig(qtbot, tmp_path, monkeypatch, board):
+    """The ``rig`` fixture's body for any ``board`` (a generator: ``yield from`` it in a fixture)."""
     monkeypatch.setenv("DESKARM_HOME", str(tmp_path / "home"))
-    ctl = CalibrationController(sessions_root=tmp_path / "sessions", board=BOARD, min_interval_s=0.0)
+    ctl = CalibrationController(sessions_root=tmp_path / "sessions", board=board, min_interval_s=0.0)
     wizard = ctl.open()
     worker = ctl.worker
     with qtbot.waitSignal(worker.sigSession, timeout=TIMEOUT_MS):
