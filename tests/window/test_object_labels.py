@@ -13,7 +13,7 @@ import pytest
 from PySide6 import QtCore, QtGui
 
 from app.gui import MainWindow
-from core.session import DeskSession, SessionOptions
+from tests.window.test_touch_window import make_window
 from widgets.camera_view import CameraView, ObjectOverlay, object_label
 
 SMALL = (800, 480)
@@ -26,14 +26,7 @@ TEXT_MIN_PIXELS = 6  # a label's text has at least this many pixels in its colou
 
 
 def objects_window(qtbot, size=SMALL) -> MainWindow:
-    session = DeskSession.create(SessionOptions(camera="sim", scenario="objects", robot="desk_rrr",
-                                                detectors=("hsv",)))
-    w = MainWindow(session)
-    qtbot.addWidget(w)
-    w.resize(*size)
-    w.show()
-    qtbot.waitExposed(w)
-    return w
+    return make_window(qtbot, scenario="objects", size=size, detectors=("hsv",))
 
 
 @pytest.fixture

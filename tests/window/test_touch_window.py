@@ -19,8 +19,9 @@ from widgets._style import TOUCH_PX
 SMALL = (800, 480)
 
 
-def make_window(qtbot, robot="desk_rrr", scenario="static", size=SMALL):
-    session = DeskSession.create(SessionOptions(camera="sim", scenario=scenario, robot=robot))
+def make_window(qtbot, robot="desk_rrr", scenario="static", size=SMALL, **options):
+    """The main window on the simulated desk (more SessionOptions in ``options``), shown, not started."""
+    session = DeskSession.create(SessionOptions(camera="sim", scenario=scenario, robot=robot, **options))
     w = MainWindow(session)
     qtbot.addWidget(w)
     w.resize(*size)

@@ -14,7 +14,7 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from app.gui import MainWindow
-from core.session import DeskSession, SessionOptions
+from tests.window.test_touch_window import make_window as make_main_window
 
 SMALL = (800, 480)
 TIMEOUT_MS = 10_000  # two cores shared with other test runs: frames can be slow
@@ -23,14 +23,7 @@ ELBOW = 2  # desk_rrr: base_yaw, shoulder, elbow (the elbow's servo is mounted a
 
 
 def make_window(qtbot, scenario="static", detectors=()) -> MainWindow:
-    session = DeskSession.create(SessionOptions(camera="sim", scenario=scenario, robot="desk_rrr",
-                                                detectors=detectors))
-    w = MainWindow(session)
-    qtbot.addWidget(w)
-    w.resize(*SMALL)
-    w.show()
-    qtbot.waitExposed(w)
-    return w
+    return make_main_window(qtbot, scenario=scenario, size=SMALL, detectors=detectors)
 
 
 @pytest.fixture
