@@ -1,5 +1,7 @@
-/* The thin hardware layer between fw.c and the MSP430FR5969's registers.
- * Everything here is register plumbing; every decision lives in src/fw.c. */
+/* The thin hardware layer between fw.c and the microcontroller's registers: hal_msp430.c
+ * (MSP430FR5969, the pins and clocks named below) or hal_avr.c (ATmega328P: servo pins D9,
+ * D10, D11, USART0; no range sensor). Everything here is register plumbing; every decision
+ * lives in src/fw.c. */
 #ifndef DESKARM_HAL_H
 #define DESKARM_HAL_H
 
