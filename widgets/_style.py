@@ -1,6 +1,9 @@
 """Shared touch-friendly sizes, colours and small widget factories (private to ``widgets``)."""
 from __future__ import annotations
 
+import inspect
+import weakref
+
 from PySide6 import QtCore, QtGui, QtWidgets
 
 # A fingertip is ~8-10 mm; on a 7" 800x480 panel that is ~40-45 px.
@@ -322,11 +325,16 @@ class Coalescer(QtCore.QObject):
     ``poke()`` arms a single-shot timer unless it is already armed, so a slider dragged
     continuously reports every interval (live feedback) instead of on every pixel, and a
     single click reports once, ``interval_ms`` later.
+
+    A bound method of the parent is held weakly: a strong one makes a reference cycle (parent →
+    coalescer → method → parent) whose collection crashes PySide6 6.8.0.2 (the newest wheel for
+    Raspberry Pi OS Bookworm): the parent's C++ object deletes its child while the collector
+    frees the child's wrapper.
     """
 
     def __init__(self, interval_ms: int, callback, parent: QtCore.QObject | None = None) -> None:
         super().__init__(parent)
-        self._callback = callback
+        self._callback = weak_callable(callback)
         self._timer = QtCore.QTimer(self)
         self._timer.setSingleShot(True)
         self._timer.setInterval(interval_ms)
@@ -345,7 +353,7 @@ class Coalescer(QtCore.QObject):
         """Make the pending call now (no-op when nothing is pending)."""
         if self._timer.isActive():
             self._timer.stop()
-            self._callback()
+            self._fire()
 
     @property
     def pending(self) -> bool:
@@ -353,7 +361,16 @@ class Coalescer(QtCore.QObject):
         return self._timer.isActive()
 
     def _fire(self) -> None:
-        self._callback()
+        callback = self._callback()
+        if callback is not None:
+            callback()
+
+
+def weak_callable(callback):
+    """A zero-argument function returning ``callback`` (None once a bound method's object is gone)."""
+    if inspect.ismethod(callback):
+        return weakref.WeakMethod(callback)
+    return lambda: callback
 
 
 COMBO_STYLE = f"""
