@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup run test bench bench-full firmware-test clean install-desktop
+.PHONY: setup run test bench bench-full firmware-test clean install-desktop check-arm64
 
 setup: $(STAMP)
 
@@ -17,6 +17,7 @@ $(STAMP): pyproject.toml
 	else \
 		$(PY) -m pip install -q -e '.[test]'; \
 	fi
+	@$(PY) -m app.qt_libraries || true  # names the apt command when Qt's system libraries are missing
 	@touch $(STAMP)
 
 run: $(STAMP)
@@ -29,7 +30,7 @@ run: $(STAMP)
 
 test: $(STAMP) firmware-test
 	$(VENV)/bin/lint-imports --no-logo --no-cache
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q $(TESTS)
 
 firmware-test:
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware test; fi
@@ -60,3 +61,9 @@ install-desktop: $(STAMP)
 	sed "s|^Exec=deskarm|Exec=$(abspath $(VENV))/bin/deskarm|" resources/deskarm.desktop > $(HOME)/.local/share/applications/deskarm.desktop
 	cp resources/deskarm.svg $(HOME)/.local/share/icons/hicolor/scalable/apps/deskarm.svg
 	@echo "deskarm is now in your application menu"
+
+# An emulated Raspberry Pi OS: a Debian Bookworm arm64 root file system (debootstrap + qemu-user),
+# deskarm installed there with `make run` (headless: no display) and the core tests run under
+# emulation. Needs root; the first run takes about an hour (see tests/arm64/check_arm64.sh).
+check-arm64:
+	bash tests/arm64/check_arm64.sh

@@ -237,6 +237,19 @@ def assist_real_arm_refusal(bridge_url: str, real_arm: bool, hand_camera_spec) -
 
 
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except ImportError as exc:  # a minimal system without the libraries under Qt (libglib, EGL, xcb…)
+        from app.qt_libraries import import_failure_text
+
+        text = import_failure_text(exc)
+        if not text:
+            raise
+        print(text, file=sys.stderr)
+        return 2
+
+
+def _main(argv: list[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in SUBCOMMANDS:
         import importlib
