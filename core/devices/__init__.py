@@ -1,5 +1,5 @@
-"""Devices: motor bridges (simulated arm, serial v1/v2, Phidget servo boards), their protocols and
-the serial ports.
+"""Devices: motor bridges (simulated arm, serial v1/v2, Phidget servo boards, the UMI-RTX
+controller), their protocols and the serial ports.
 
 ``open_bridge(url, profile)`` is the front door: it parses the URL (``core.devices.bridge``)
 and imports only the implementation it hands out.
@@ -26,6 +26,10 @@ def open_bridge(url: str, profile, clock=None) -> "MotorBridge":
         from core.devices.serial_v2 import SerialV2Bridge
 
         return SerialV2Bridge(url, profile, clock=clock)
+    if protocol == "rtx":
+        from core.devices.rtx_bridge import RtxBridge
+
+        return RtxBridge(url, profile, clock=clock)
     if protocol == "phidget":
         from core.devices.phidget import PhidgetServoBridge  # imports Phidget22 only on connect()
 

@@ -11,7 +11,12 @@ profile)`` chooses one from the URL:
 - ``v2:/dev/ttyACM0`` — our protocol v2 (SerialV2Bridge): measured joint states, heartbeat,
   watchdog, e-stop;
 - ``phidget://[SERIAL][?channels=0,1,2]`` — a Phidget servo controller through the vendor's
-  Phidget22 library (``phidget.PhidgetServoBridge``), as on the original assistive arm.
+  Phidget22 library (``phidget.PhidgetServoBridge``), as on the original assistive arm;
+- ``rtx:/dev/ttyUSB0`` — a UMI-RTX's own controller over RS-232 (``rtx_bridge.RtxBridge``,
+  ``--robot umi_rtx`` only); ``rtx:sim`` — the same bridge talking to an emulated RTX
+  (``rtx_emulator``) over a pseudo-terminal pair. Options: ``?init=auto`` initialises the
+  encoders on connect without asking (unattended runs), ``?speedup=N`` (``rtx:sim`` only) makes
+  the emulated arm move N times faster.
 
 There is deliberately no auto-detection of the protocol. Probing means sending a v2 frame
 (a PING is ``F5 F5 00 05 seq crc crc F7``) to a board that may run the ORIGINAL firmware, which
@@ -44,7 +49,9 @@ BRIDGE_CHOICES = (
     "sim:// (simulated arm) | /dev/ttyACM0, /dev/ttyUSB0, /dev/serial/by-id/…, COM3 or v1:<port> "
     "(original firmware, protocol v1: no feedback) | v2:<port>, e.g. v2:/dev/ttyACM0 (deskarm "
     "firmware, protocol v2: feedback, watchdog, e-stop) | phidget://[SERIAL][?channels=0,1,2] "
-    "(Phidget servo board, needs pip install 'deskarm[phidget]') | loop:// (pyserial loopback). "
+    "(Phidget servo board, needs pip install 'deskarm[phidget]') | rtx:<port>[?init=auto], e.g. "
+    "rtx:/dev/ttyUSB0 (UMI-RTX controller over RS-232, --robot umi_rtx) or rtx:sim (an emulated "
+    "RTX) | loop:// (pyserial loopback). "
     "No auto-detection: a v2 probe would move an arm running the original firmware"
 )
 
@@ -259,6 +266,7 @@ _SERIAL_URL_PREFIXES = ("/dev/", "COM", "\\\\.\\COM") + tuple(f"{s}://" for s in
 V1_PREFIX = "v1:"  # explicit protocol v1 (the default for a plain port)
 V2_PREFIX = "v2:"  # protocol v2: deskarm firmware only (see the module docstring)
 PHIDGET_SCHEME = "phidget://"  # a Phidget servo board (core.devices.phidget)
+RTX_PREFIX = "rtx:"  # a UMI-RTX controller (core.devices.rtx_bridge)
 PHIDGET_MAX_CHANNEL = 15  # the largest Phidget servo controller (RCC1000) has 16 channels
 
 
@@ -273,8 +281,9 @@ def _is_serial_port_url(port: str) -> bool:
 
 
 def split_bridge_url(url: str) -> tuple[str, str]:
-    """``(protocol, port)``: ('sim', 'sim://'), ('v1', '/dev/ttyACM0'), ('v2', '/dev/ttyACM0') or
-    ('phidget', 'phidget://123456?channels=0,1,2') (the whole URL: it is the "port").
+    """``(protocol, port)``: ('sim', 'sim://'), ('v1', '/dev/ttyACM0'), ('v2', '/dev/ttyACM0'),
+    ('phidget', 'phidget://123456?channels=0,1,2') (the whole URL: it is the "port"),
+    ('rtx', '/dev/ttyUSB0') or ('rtx', 'sim') (any ``?options`` stay on the port).
 
     A plain port means v1, as it always did; ``v1:`` says so explicitly, ``v2:`` chooses v2.
     ValueError names the value and the valid forms.
@@ -285,6 +294,9 @@ def split_bridge_url(url: str) -> tuple[str, str]:
     if url.lower().startswith(PHIDGET_SCHEME):
         parse_phidget_url(url)  # ValueError naming what is wrong
         return "phidget", url
+    if url.lower().startswith(RTX_PREFIX):
+        rtx = parse_rtx_url(url)  # ValueError naming what is wrong
+        return "rtx", url[len(RTX_PREFIX):].strip() if rtx.port else "sim"
     protocol = "v1"
     port = url
     low = url.lower()
@@ -338,11 +350,58 @@ def parse_phidget_url(url: str) -> PhidgetUrl:
 
 
 
+@dataclass(frozen=True)
+class RtxUrl:
+    """What an ``rtx:`` URL names."""
+
+    port: Optional[str]  # the serial port; None = the emulated RTX (rtx:sim)
+    auto_init: bool  # initialise the encoders on connect without asking
+    speedup: float  # rtx:sim only: the emulated arm moves this many times faster than a real one
+
+
+RTX_SIM_SPEEDUP = 5.0  # rtx:sim's default: the emulated initialisation takes ~11 s instead of ~55 s
+
+
+def parse_rtx_url(url: str) -> RtxUrl:
+    """``rtx:PORT[?init=auto]`` or ``rtx:sim[?speedup=N][&init=auto]`` → RtxUrl; ValueError naming
+    the part that is wrong."""
+    text = (url or "").strip()
+    form = "expected rtx:<port>[?init=auto] (e.g. rtx:/dev/ttyUSB0) or rtx:sim[?speedup=5]"
+    if not text.lower().startswith(RTX_PREFIX):
+        raise ValueError(f"{url!r} is not an RTX URL: {form}")
+    rest = text[len(RTX_PREFIX):].strip()
+    port, _, query = rest.partition("?")
+    port = port.strip()
+    if not port:
+        raise ValueError(f"{url!r}: no port — {form}")
+    options = parse_qs(query, keep_blank_values=True) if query else {}
+    unknown = sorted(set(options) - {"init", "speedup"})
+    if unknown:
+        raise ValueError(f"{url!r}: unknown option {unknown[0]!r}; the options are init=auto and speedup=N (rtx:sim)")
+    init = options.get("init", ["ask"])[-1]
+    if init not in ("auto", "ask"):
+        raise ValueError(f"{url!r}: init={init!r}: expected init=auto (initialise on connect) or init=ask")
+    sim = port.lower() in ("sim", "sim://")
+    speedup = RTX_SIM_SPEEDUP if sim else 1.0
+    if "speedup" in options:
+        if not sim:
+            raise ValueError(f"{url!r}: speedup= is for rtx:sim only (a real arm moves at its own speed)")
+        try:
+            speedup = float(options["speedup"][-1])
+        except ValueError:
+            speedup = float("nan")
+        if not 0.1 <= speedup <= 1000.0:
+            raise ValueError(f"{url!r}: speedup={options['speedup'][-1]!r}: expected a number from 0.1 to 1000")
+    if not sim and not _is_serial_port_url(port):
+        raise ValueError(f"{url!r}: {port!r} is not a serial port; {form}")
+    return RtxUrl(port=None if sim else port, auto_init=init == "auto", speedup=speedup)
+
+
 def parse_bridge_url(url: str) -> str:
-    """'sim', 'serial' (protocol v1), 'serial-v2' or 'phidget'; ValueError naming the value and the
-    valid forms."""
+    """'sim', 'serial' (protocol v1), 'serial-v2', 'phidget' or 'rtx'; ValueError naming the value and
+    the valid forms."""
     protocol, _ = split_bridge_url(url)
-    return {"sim": "sim", "v1": "serial", "v2": "serial-v2", "phidget": "phidget"}[protocol]
+    return {"sim": "sim", "v1": "serial", "v2": "serial-v2", "phidget": "phidget", "rtx": "rtx"}[protocol]
 
 
 def is_finite_q(q: Sequence[float]) -> bool:
