@@ -11,7 +11,8 @@
  * schedules every edge against absolute Timer1 counts. A 20 ms frame (40000 counts, 50 Hz)
  * has one slot per joint: joint j's pulse starts 4 ms * j after the frame start and lasts
  * its width (<= 3 ms, so pulses never overlap and every edge is >= 400 us from the next).
- * The compare fires EDGE_EARLY_COUNTS before each edge; the interrupt then spins on TCNT1
+ * The compare fires EDGE_EARLY_COUNTS before each edge (FRAME_EARLY_COUNTS before a frame's
+ * start, which also builds the frame's edge list); the interrupt then spins on TCNT1
  * until the edge's count and writes PORTB. So an edge lands on its count within one spin
  * (a few cycles, < 1 us) even when the UART interrupt or a short cli() in the main loop
  * delayed the timer interrupt: a pulse is as exact as the crystal, not the interrupt load.
@@ -43,6 +44,9 @@
 #define FRAME_COUNTS 40000u              /* 20 ms: 50 Hz */
 #define SLOT_COUNTS 8000u                /* 4 ms per joint */
 #define EDGE_EARLY_COUNTS 40u            /* 20 us: longer than any interrupt or cli() here */
+#define FRAME_EARLY_COUNTS 200u          /* 100 us: also room to build the frame's edge list
+                                          * (with 20 us, a UART interrupt just before it made
+                                          * the frame's first edge up to ~1 us late) */
 #define PULSE_MIN_US 100u                /* fw never asks for less than 400 (V2_PULSE_MIN_US) */
 #define PULSE_MAX_US 3000u               /* = V2_PULSE_MAX_US: fits the 4 ms slot */
 #define EVENTS_MAX (1u + 2u * HAL_JOINTS) /* frame start + a rise and a fall per joint */
@@ -88,7 +92,7 @@ static void servo_init(void)
     event_count = 0;
     event_next = 0;
     frame_start = FRAME_COUNTS;        /* first frame 20 ms after start-up */
-    OCR1A = (uint16_t)(frame_start - EDGE_EARLY_COUNTS);
+    OCR1A = (uint16_t)(frame_start - FRAME_EARLY_COUNTS);
     TIFR1 = (uint8_t)(1u << OCF1A);
     TIMSK1 = (uint8_t)(1u << OCIE1A);
 }
@@ -215,7 +219,7 @@ ISR(TIMER1_COMPA_vect)
 {
     uint16_t at;
     if (event_next == 0u) {
-        build_frame(); /* we are EDGE_EARLY_COUNTS ahead of the frame start: time to spare */
+        build_frame(); /* FRAME_EARLY_COUNTS ahead of the frame start: time to spare */
         if (ticks < 255u) {
             ticks++; /* every 20 ms exactly; the widths fw computes now start next frame */
         }
@@ -229,7 +233,7 @@ ISR(TIMER1_COMPA_vect)
     if (event_next >= event_count) {
         event_next = 0;
         frame_start = (uint16_t)(frame_start + FRAME_COUNTS);
-        OCR1A = (uint16_t)(frame_start - EDGE_EARLY_COUNTS);
+        OCR1A = (uint16_t)(frame_start - FRAME_EARLY_COUNTS);
     } else {
         OCR1A = (uint16_t)(event_at[event_next] - EDGE_EARLY_COUNTS);
     }

@@ -235,8 +235,8 @@ def test_deskarm_bridge_drives_the_emulated_board(avr, avr_size_report, protocol
         widths = {round(q.width_us) for q in pulses if q.pin == pin}
         assert len(widths) > 5, f"{pin} should follow the arm's moves, saw widths {sorted(widths)}"
         assert all(400 - TOL_US <= w <= 3000 + TOL_US for w in widths)
-        periods = [q.period_us for q in pulses if q.pin == pin and q.period_us > 0]
-        assert all(abs(t - 20000) <= TOL_US for t in periods)
+        odd = [q for q in pulses if q.pin == pin and q.period_us > 0 and abs(q.period_us - 20000) > TOL_US]
+        assert not odd, f"{pin}: periods off 20 ms: {odd[:5]}"
     if protocol == "v2":
         assert p.Flag.V2_MODE in avr.status(avr.open()).flags
     assert last_widths(moved), "the pins were still pulsing at the end"
