@@ -1,6 +1,6 @@
 """The UMI-RTX's encoder initialisation from the command line, with progress on stderr.
 
-``python -m app.rtx_init --bridge rtx:/dev/ttyUSB0`` connects to the controller, drives each joint
+``python -m app.rtx_init --bridge rtx:/dev/ttyUSB0`` (``deskarm rtx-init`` once ``app.cli`` lists it) connects to the controller, drives each joint
 to its end stops (``RtxBridge.initialise``) and prints one line per step and per 10 % of a joint;
 Ctrl-C stops every motor. Exit 0 when the arm is ready, 1 when it failed, 130 when stopped.
 
@@ -51,8 +51,13 @@ def ensure_ready(bridge, status: Callable[[str], None], cancel: Optional[threadi
     return False
 
 
-def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m app.rtx_init",
+def run(name: str, argv: list[str]) -> int:
+    """``deskarm rtx-init …`` (``app.cli``'s SUBCOMMANDS dispatch)."""
+    return main(argv, prog=f"deskarm {name}")
+
+
+def main(argv: Optional[list[str]] = None, prog: str = "python -m app.rtx_init") -> int:
+    parser = argparse.ArgumentParser(prog=prog,
                                      description="Initialise a UMI-RTX's encoders: each joint to its end stops.")
     parser.add_argument("--bridge", required=True, help="rtx:<port> (e.g. rtx:/dev/ttyUSB0) or rtx:sim")
     args = parser.parse_args(argv)

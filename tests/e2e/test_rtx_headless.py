@@ -69,3 +69,13 @@ def test_headless_wander_drives_the_emulated_rtx_without_a_limit_violation(tmp_p
     finally:
         emulator.terminate()
         emulator.wait(30)
+
+
+def test_rtx_init_answers_its_help_as_a_deskarm_tool(capsys):
+    from app.rtx_init import run
+
+    try:
+        run("rtx-init", ["--help"])
+    except SystemExit as exc:
+        assert exc.code == 0
+    assert "usage: deskarm rtx-init" in capsys.readouterr().out
