@@ -227,7 +227,7 @@ def test_deskarm_bridge_drives_the_emulated_board(avr, avr_size_report, protocol
         moved.append(avr.next_event())
     pulses = [e for e in moved if isinstance(e, Pulse)]
     print(f"\n{protocol}: {json.dumps({k: result[k] for k in ('commands_sent', 'limit_violations', 'bridge_disconnects', 'latency_ms_p50', 'latency_ms_p95')})}; "
-          f"emulated/wall time {avr.speed_ratio():.3f}; {len(pulses)} pulses measured")
+          f"emulated/wall time {avr.speed_ratio() or 0:.3f}; {len(pulses)} pulses measured")
     assert result["limit_violations"] == 0
     assert result["bridge_disconnects"] == 0
     assert result["commands_sent"] > 0
