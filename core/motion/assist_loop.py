@@ -209,6 +209,30 @@ class LoopStatus:
     radius_px: Optional[float] = None  # the followed box's radius in the latest image
 
 
+MOVING_STATES = ("ALIGN", "APPROACH", "ACT")  # the arm is on its way to (or pressing) the chosen box
+_VERBS = {"ALIGN": "aligning with", "APPROACH": "approaching", "ACT": "pressing"}
+
+
+def state_line(status: LoopStatus, previous: Optional[LoopStatus], stopped: bool, current: str) -> str:
+    """The assistive view's state line after ``status`` ("aligning with 7", "done: 7 pressed",
+    "could not reach 7: lost", "going back", "stopped", …); ``previous``: the status before (None
+    at first), ``stopped``: the user's STOP is engaged, ``current``: the line shown now (kept when
+    nothing new is to be said, and a "stopped: …" reason is kept while stopped)."""
+    n = None if status.target_index is None else status.target_index + 1
+    if stopped:  # a state change queued before the stop reached the loop: the stop wins
+        return current if current.startswith("stopped") else "stopped"
+    if status.state in MOVING_STATES:
+        return f"{_VERBS[status.state]} {n}"
+    if status.state in ("IDLE", "RETURN") and previous is not None and previous.state in MOVING_STATES:
+        outcome = status.outcome or ""
+        if outcome.startswith(("pressed", "touched")):
+            return f"done: {n} pressed"
+        return f"could not reach {n}: {outcome.split(':')[0]}"
+    if status.state == "RETURN" and not current.startswith(("done", "could not")):
+        return "going back"
+    return current
+
+
 class AssistLoop:
     """The per-frame loop of the assistive arm on one hand camera (see the module docstring).
 

@@ -13,7 +13,7 @@ taps, switch presses and the time, and they answer with ``ScanEvent`` s.
   The highlight stands still while the switch is held.
 
 Boxes are (x, y, w, h) in image pixels, in scanning order (``reading_order`` sorts detections
-row by row, left to right).
+row by row, left to right); ``grown_boxes`` gives the bigger targets a view draws and hit-tests.
 """
 from __future__ import annotations
 
@@ -171,3 +171,23 @@ def one_switch_cost(target_index: int, period_s: float, reaction_s: float = 0.4,
         raise ValueError(f"reaction {reaction_s} s + press {press_s} s does not fit in a {period_s} s scan step: "
                          f"the highlight would move on first — lengthen the period")
     return {"presses": 1, "seconds": target_index * period_s + reaction_s + press_s}
+
+
+BOX_GROWTH_MAX = 1.6  # boxes are drawn (and hit-tested) up to this much larger than the detected circle …
+BOX_GAP_FRACTION = 0.9  # … but no larger than this fraction of the distance to the nearest neighbour
+
+
+def grown_boxes(boxes: Sequence[Box]) -> list[Box]:
+    """The boxes drawn larger about their centres (up to BOX_GROWTH_MAX), never into a neighbour:
+    bigger targets for a shaky finger, the same centres."""
+    if not boxes:
+        return []
+    centres = [(x + w / 2, y + h / 2) for x, y, w, h in boxes]
+    out = []
+    for i, (x, y, w, h) in enumerate(boxes):
+        cx, cy = centres[i]
+        gaps = [max(abs(cx - ox), abs(cy - oy)) for j, (ox, oy) in enumerate(centres) if j != i]
+        size = max(w, h)
+        growth = BOX_GROWTH_MAX if not gaps else min(BOX_GROWTH_MAX, max(1.0, BOX_GAP_FRACTION * min(gaps) / size))
+        out.append((cx - w * growth / 2, cy - h * growth / 2, w * growth, h * growth))
+    return out

@@ -243,19 +243,19 @@ def test_a_key_switch_held_with_x11_auto_repeat_stops_and_a_second_hold_re_arms(
         w.scan_tick()
     assert w.engaged
     send_key(w, "release", stamp + 30)  # the key really comes up: no press follows
-    qtbot.waitUntil(lambda: w._down is None, timeout=TIMEOUT_MS)  # the window's timer ends the wait
+    qtbot.waitUntil(lambda: w.switches.held is None, timeout=TIMEOUT_MS)  # the window's timer ends the wait
     assert w.engaged and not chose()
     stamp = hold_space(w, clock, stamp + 2_000, 1.8, [])  # hold again: re-arm
     assert not w.engaged
     send_key(w, "release", stamp + 30)
-    qtbot.waitUntil(lambda: w.choosing and w._down is None, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: w.choosing and w.switches.held is None, timeout=TIMEOUT_MS)
     assert not chose() and w.view.highlight == 0
     # a real short press (a timestamp, no repeat) still acts once, after the release's wait
     send_key(w, "press", stamp + 1_000)
     clock.t += 0.12
     send_key(w, "release", stamp + 1_120)
     if mode == "scan2":
-        qtbot.waitUntil(lambda: w.view.highlight == 1 and w._down is None, timeout=TIMEOUT_MS)
+        qtbot.waitUntil(lambda: w.view.highlight == 1 and w.switches.held is None, timeout=TIMEOUT_MS)
         assert not chose()
     else:
         qtbot.waitUntil(lambda: w.worker.selections == [0], timeout=TIMEOUT_MS)

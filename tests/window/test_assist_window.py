@@ -288,7 +288,7 @@ def test_a_gpio_single_switch_confirms_in_scan1(make_window, qtbot, monkeypatch)
     assert w.view.highlight == 3
     button = FakeButton.instances[0]
     button.when_pressed()  # from gpiozero's thread in real life: queued to the GUI thread
-    qtbot.waitUntil(lambda: w._down is not None, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: w.switches.held is not None, timeout=TIMEOUT_MS)
     clock.t += 0.15
     button.when_released()
     qtbot.waitUntil(lambda: w.worker.selections == [3], timeout=TIMEOUT_MS)

@@ -59,7 +59,7 @@ def test_the_window_cues_each_highlight_move_when_sound_is_on(qtbot, monkeypatch
     w.set_settings(AssistSettings(mode="scan2", sound=True))
     qtbot.addWidget(w)
     plays = []
-    monkeypatch.setattr(w, "sound_cue", lambda: type("Cue", (), {"play": lambda self: plays.append(1),
+    monkeypatch.setattr(w.sound, "cue", lambda: type("Cue", (), {"play": lambda self: plays.append(1),
                                                                  "close": lambda self: None})())
     try:
         w.start()
