@@ -4,9 +4,10 @@
 to its end stops (``RtxBridge.initialise``) and prints one line per step and per 10 % of a joint;
 Ctrl-C stops every motor. Exit 0 when the arm is ready, 1 when it failed, 130 when stopped.
 
-``ensure_ready(bridge, status)`` is the hook for other runners (the headless runner): a bridge that
-is not an RTX, or one already initialised, is left alone; an RTX that needs it is initialised with
-progress lines through ``status``.
+``attach_status(bridge, status)`` is the headless runner's hook (one line before it connects the
+bridge): an RTX bridge then reports its initialisation (``rtx:PORT?init=auto``) through ``status``,
+or says that motion waits for one. ``ensure_ready(bridge, status)`` initialises an RTX that needs it
+now, with the same progress lines; other bridges are left alone by both.
 """
 from __future__ import annotations
 
@@ -35,6 +36,14 @@ def progress_printer(status: Callable[[str], None]) -> Callable[[object], None]:
         status(f"rtx init: {ev.text}" + (f"  [{bars}]" if bars and not ev.done else ""))
 
     return show
+
+
+def attach_status(bridge, status: Callable[[str], None]) -> None:
+    """Let an RTX bridge say its initialisation's progress (``?init=auto``: on connect, and again
+    after a controller restart) — or that motion waits for one — through ``status``; other
+    bridges are left alone. The headless runner calls it before ``bridge.connect()``."""
+    if hasattr(bridge, "progress_sink"):
+        bridge.progress_sink = progress_printer(status)
 
 
 def ensure_ready(bridge, status: Callable[[str], None], cancel: Optional[threading.Event] = None) -> bool:

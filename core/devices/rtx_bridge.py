@@ -201,6 +201,9 @@ class RtxBridge(MotorBridge):
         self._factory = serial_factory
         self._emulator_factory = emulator_factory
         self.emulator = None  # rtx:sim: the RtxEmulator serving the pty (kept across reconnects)
+        # where an initialisation that nobody called explicitly (?init=auto) reports its progress,
+        # and where connect() says that motion waits for one (the headless runner's stderr)
+        self.progress_sink: Optional[Callable[[InitProgress], None]] = None
         self.port_url = self.rtx_url.port
         self.limits_q = _limits_in_q(profile)
 
@@ -295,9 +298,13 @@ class RtxBridge(MotorBridge):
         self._link_down.clear()
         self.message = f"UMI-RTX controller, version {self.version:#06x}" if self.version is not None else "UMI-RTX"
         self._auto_init_due = False
+        if not self.ready and not self.rtx_url.auto_init and self.progress_sink is not None:
+            self.progress_sink(InitProgress(
+                "", 0.0, f"{self.init_reason} — motion waits for it: add ?init=auto to the bridge URL or run "
+                "deskarm rtx-init first", done=True))
         if self.rtx_url.auto_init and not self.ready and not self._estopped:
             try:
-                self.initialise()  # before the I/O thread starts: nothing else uses the line
+                self.initialise(progress=self.progress_sink)  # before the I/O thread: the line is ours
             except InitCancelled:
                 pass
             except BridgeError:
@@ -671,7 +678,7 @@ class RtxBridge(MotorBridge):
                 if self._auto_init_due and not self._estopped:
                     self._auto_init_due = False  # once per restart: a failing init is not repeated
                     try:
-                        self.initialise()
+                        self.initialise(progress=self.progress_sink)
                     except InitCancelled:
                         pass
                     continue

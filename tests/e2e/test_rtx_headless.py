@@ -79,3 +79,24 @@ def test_rtx_init_answers_its_help_as_a_deskarm_tool(capsys):
     except SystemExit as exc:
         assert exc.code == 0
     assert "usage: deskarm rtx-init" in capsys.readouterr().out
+
+
+def test_attach_status_says_the_auto_initialisation_or_that_motion_waits_for_one():
+    from app.rtx_init import attach_status
+
+    profile = load_profile("umi_rtx")
+    lines: list[str] = []
+    waiting = open_bridge("rtx:sim?speedup=60", profile)
+    auto = open_bridge("rtx:sim?speedup=60&init=auto", profile)
+    try:
+        attach_status(waiting, lines.append)
+        waiting.connect()
+        assert len(lines) == 1 and "motion waits for it" in lines[0] and "?init=auto" in lines[0]
+        lines.clear()
+        attach_status(auto, lines.append)
+        auto.connect()
+        assert auto.ready and any("column 100%" in line for line in lines)
+        assert lines[-1] == "rtx init: initialised: the arm is ready"
+    finally:
+        waiting.shutdown()
+        auto.shutdown()
