@@ -1,6 +1,7 @@
 """The house rules of DESIGN.md, kept by import-linter (contracts in pyproject.toml):
 app -> widgets -> core; core imports no Qt or pyqtgraph; devices and kinematics never import
-vision or the simulated desk; no import cycle between the wings of core or inside a wing."""
+vision or the simulated desk; no import cycle between the wings of core or inside a wing; the
+window's features (app/features/) never import each other nor the window."""
 import os
 import shutil
 import subprocess
@@ -55,6 +56,10 @@ def test_the_import_contracts_hold(lint_tool):
     ("core/motion/control.py", "import widgets.status", "app -> widgets -> core"),
     ("core/kinematics/base.py", "from core.kinematics import profile", "no import cycles"),
     ("core/motion/safety.py", "from core.devices import bridge", "no import cycles"),
+    ("app/features/jog.py", "from app.features.teleop import TeleopFeature",
+     "the window's features never import each other"),
+    ("app/features/markers.py", "import app.features.target", "the window's features never import each other"),
+    ("app/features/status.py", "from app import gui", "features never import the window that composes them"),
 ])
 def test_a_bad_import_breaks_its_contract(tmp_path, lint_tool, module, bad_import, broken):
     tree = copy_of_the_packages(tmp_path)

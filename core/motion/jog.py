@@ -160,6 +160,31 @@ class Jogger:
         self._q_seed = self.q_target
         return self.q_target
 
+    def begin(self, q_arm, manual_target=None, joint_jog=None):
+        """Start a jog from where the arm is aimed: in MANUAL mode (``manual_target`` given) from
+        the manual target, or from the joint jog's target when one is on (``joint_jog``); in any
+        other mode from ``q_arm``, the joints the arm is commanded to (so jogging out of Follow
+        starts at the tool, not at an old target). Returns the start (a point or joint values)."""
+        joints = joint_jog if manual_target is not None and joint_jog is not None else None
+        if self.space is JogSpace.CARTESIAN:
+            if manual_target is not None and joints is None:
+                return self.start_cartesian(manual_target)
+            return self.start_cartesian(self.kinematics.fk(q_arm if joints is None else joints))
+        return self.start_joints(q_arm if joints is None else joints)
+
+    def tool_point(self, q) -> tuple[float, float, float]:
+        """The tool point of joint values ``q`` (robot_base, m): where a joint jog puts the manual target."""
+        return tuple(float(v) for v in self.kinematics.fk(q))
+
+    def readout(self, q_commanded, manual_target, joint_jog=None) -> tuple[tuple[float, float, float], list[str]]:
+        """What a jog panel shows: the point (the joint jog's tool point in joint space, else the
+        manual target) and the joints for people (the joint jog's, else ``q_commanded``, else home)."""
+        joint_space = self.space is JogSpace.JOINT
+        q = joint_jog if joint_space and joint_jog is not None else (
+            q_commanded if q_commanded is not None else self.profile.q_home)
+        p = self.kinematics.fk(q) if joint_space else manual_target
+        return p, joint_display(self.profile, q)
+
     # --- clipping ----------------------------------------------------------------------------
     def clip(self, base_p) -> tuple[tuple[float, float, float], str]:
         """``base_p`` above the desk margin and then at the nearest point the arm reaches; the note

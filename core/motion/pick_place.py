@@ -87,3 +87,39 @@ class PickPlaceSequence:
             return PickPlaceStep(None, self.grip_closed, self.message, True, True)
         self.message = f"pick and place: {what} ({self.index + 1}/{len(self.waypoints)})"
         return PickPlaceStep(tuple(float(v) for v in point), self.grip_closed, self.message, False, False)
+
+    def advance(self, t: float, kinematics, q_measured, gripper=None) -> "PickPlaceCommand":
+        """One step with the measured joints ``q_measured`` (None: not known yet): where the tool
+        goes and the gripper opening (``gripper``: the profile's, None for arms without one), and
+        the message to show when it changed or the sequence ended ("" otherwise)."""
+        tool = None if q_measured is None else np.asarray(kinematics.fk(q_measured), float)[:3]
+        before = self.message
+        step = self.step(t, tool)
+        grip = None
+        if step.target is not None and gripper is not None:
+            grip = gripper.min_m if step.grip_closed else gripper.max_m
+        note = step.message if step.message != before or step.done else ""
+        return PickPlaceCommand(step.target, grip, note, step.done)
+
+
+@dataclass(frozen=True)
+class PickPlaceCommand:
+    """What one step of a running pick and place asks of the arm and the user."""
+
+    target: Optional[tuple[float, float, float]]  # the manual target (robot_base, m); None: none now
+    grip_m: Optional[float]  # the gripper opening (m); None: no gripper or no target
+    note: str  # a message to show now ("" when nothing new)
+    done: bool  # the sequence ended (placed or stopped)
+
+
+def start_pick_place(config, marker_id: int, observation) -> tuple[Optional[PickPlaceSequence], str]:
+    """A pick and place of the marker ``marker_id`` to the place the markers file (``config``) names
+    for it, from its ``observation`` (MarkerObservation or None): (the sequence, "") or (None, why not)."""
+    name = config.name_of(marker_id)
+    place = config.place_of(marker_id)
+    if place is None:
+        return None, f"{name} has no place in the markers file"
+    obs = observation
+    if obs is None or not obs.found or obs.base_p_centre is None:
+        return None, f"pick and place {name}: it must be seen by both cameras"
+    return PickPlaceSequence(obs.base_p_centre, place, label=name), ""
