@@ -34,6 +34,8 @@ test: $(STAMP) firmware-test
 
 firmware-test:
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware test; fi
+	@if command -v avr-gcc >/dev/null 2>&1; then $(MAKE) -s -C firmware avr; \
+	else echo "firmware-test: avr-gcc not installed, ATmega328P build skipped (apt-get install gcc-avr avr-libc)"; fi
 
 # ikpy (the IK baseline) is only needed for the bench
 $(VENV)/.bench-installed: $(STAMP)
