@@ -81,7 +81,6 @@ def rows(quick: bool) -> list[dict]:
         duration = 6.0 if quick else 20.0
         q0 = list(profile.q_home)
         start_cmds, start_rx = len(ctl.received), len(ctl.replies)
-        cycles_before = len(bridge.cycle_s)
         bridge.cycle_s.clear()
         t_cmd, q_cmd, t_meas, q_meas = [], [], [], []
         t0 = time.monotonic()
@@ -99,7 +98,6 @@ def rows(quick: bool) -> list[dict]:
                 q_meas.append(st.q[1])
             time.sleep(0.05)
         cycles = list(bridge.cycle_s)
-        del cycles_before
         sent = [c for _, _, c in ctl.received[start_cmds:]]
         replies = ctl.replies[start_rx:]
         n_cycles = max(1, len(cycles))
