@@ -73,7 +73,7 @@ def remote_figures(duration_s: float, estops: int) -> tuple[list[float], list[fl
                     rt = client.estop_round_trip(timeout=2.0)
                     if rt is not None:
                         round_trips.append(rt * 1e3)
-                    client.send_estop(False)
+                    client.rearm(timeout=5.0)
                     client.wait_for("/deskarm/estop", lambda r: not r.msg.data, timeout=2.0,
                                     after=client.count("/deskarm/estop"))
         finally:

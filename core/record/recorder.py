@@ -134,7 +134,9 @@ class Recorder:
         self.session_info = dict(session_info)
         self.jpeg_quality = int(jpeg_quality)
         self.queue_size = int(queue_size)
+        self._clock = clock
         self._now = clock.now if clock is not None else time.monotonic
+        self._epoch = 0.0  # clock s -> stamp s (ROS time for a live clock), fixed by start()
         self.joint_names = tuple(joint_names)
         self.fk = fk
         self._bag: Optional[BagWriter] = None
@@ -199,8 +201,15 @@ class Recorder:
         session info's; ``calibration`` (a StereoCalibration) to the one its YAML holds."""
         if self._thread is not None:
             raise RuntimeError("Recorder.start() called twice")
+        self._epoch = tp.ros_epoch(self._clock)
+        clock_kind = tp.clock_kind(self._clock)
+        clock_text = ("ros: header stamps and log times are wall-clock nanoseconds since the UNIX epoch"
+                      if clock_kind == tp.CLOCK_ROS else
+                      "simulated: header stamps and log times are the simulated clock's time since the run "
+                      "started (a --fast run), not wall-clock time")
         bag = BagWriter(self.path, custom_data={"deskarm_started": datetime.now().isoformat(timespec="seconds"),
-                                                "deskarm_robot": str(self.session_info.get("robot", ""))},
+                                                "deskarm_robot": str(self.session_info.get("robot", "")),
+                                                "deskarm_clock": clock_kind, "deskarm_clock_meaning": clock_text},
                         compress=self.still)
         try:
             bag.open()
@@ -345,37 +354,45 @@ class Recorder:
             self._frames_queued = 0
 
     def _write(self, bag: BagWriter, kind: str, payload) -> None:
+        e = self._epoch  # every clock time below becomes a stamp as t + e (the stream's own sum)
         if kind == "frame":
             w0 = time.perf_counter()
             self._write_frame(bag, payload)
             self.frame_costs_ms.append((time.perf_counter() - w0) * 1e3)
         elif kind == "result":
             t, found = payload
+            t += e
             bag.write(tp.MARKERS, tp.time_ns(t), tp.found_marker_array(found, t))
         elif kind == "command":
             t, q = payload
+            t += e
             bag.write(tp.JOINTS_COMMANDED, tp.time_ns(t), tp.joint_state(q, t, self.joint_names))
         elif kind == "goal":
-            msg = tp.goal_point(payload)
+            msg = tp.goal_point(payload, payload.t + e)
             if msg is not None:
-                bag.write(tp.GOAL, tp.time_ns(payload.t), msg)
+                bag.write(tp.GOAL, tp.time_ns(payload.t + e), msg)
         elif kind == "state":
             t, q = payload
+            t += e
             bag.write(tp.JOINTS_MEASURED, tp.time_ns(t), tp.joint_state(q, t, self.joint_names))
             if self.fk is not None:
                 bag.write(tp.TF, tp.time_ns(t), tp.tf_base_tool(q, t, self.fk))
         elif kind == "estop":
             t, on = payload
+            t += e
             bag.write(tp.ESTOP, tp.time_ns(t), tp.bool_msg(on))
         elif kind == "camera_info":
             t, calib = payload
+            t += e
             bag.write(tp.CAMERA_LEFT_INFO, tp.time_ns(t), tp.camera_info(calib, "left", t))
             bag.write(tp.CAMERA_RIGHT_INFO, tp.time_ns(t), tp.camera_info(calib, "right", t))
         elif kind == "tf_static":
             t, base_T_camera = payload
+            t += e
             bag.write(tp.TF_STATIC, tp.time_ns(t), tp.tf_base_camera(base_T_camera, t))
         elif kind == "session":
             t, info = payload
+            t += e
             bag.write(tp.SESSION, tp.time_ns(t), tp.session_msg(info))
 
     def _write_frame(self, bag: BagWriter, frame) -> None:
@@ -386,7 +403,8 @@ class Recorder:
             else:
                 jl, jr = self._jpeg(frame.left), self._jpeg(frame.right)
             self._jpeg_cache = (frame.left, frame.right, jl, jr)
-        t, ns = frame.t, tp.time_ns(frame.t)
+        t = frame.t + self._epoch  # the stream stamps this frame frame.t + the same epoch (ros_epoch)
+        ns = tp.time_ns(t)
         bag.write(tp.CAMERA_LEFT_IMAGE, ns, tp.compressed_image(jl, t, tp.FRAME_CAMERA_LEFT))
         bag.write(tp.CAMERA_RIGHT_IMAGE, ns, tp.compressed_image(jr, t, tp.FRAME_CAMERA_RIGHT))
         if frame.truth is not None:

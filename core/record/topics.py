@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import weakref
 from typing import Callable, Optional, Sequence
 
 import numpy as np
@@ -70,6 +71,38 @@ TRUTH_BALL_ID = -1  # ObjectTruth.marker_id of the cups game's ball
 def serialize(msg) -> bytes:
     """ROS 2 CDR bytes of a rosbags message object (with the 4-byte encapsulation header)."""
     return TYPESTORE.serialize_cdr(msg, msg.__msgtype__)
+
+
+CLOCK_ROS = "ros"  # stamps are ROS time: wall-clock seconds since the UNIX epoch (live runs)
+CLOCK_SIMULATED = "simulated"  # stamps are the simulated clock's seconds since the run started (--fast)
+_epochs: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_monotonic_epoch: list = []
+
+
+def ros_epoch(clock=None) -> float:
+    """Seconds to add to ``clock``'s times to get the stamps deskarm writes (one per clock, fixed at
+    its first use, so the stream and a recording stamp the same instant alike): wall time minus
+    the clock's time for a live clock (``time.monotonic`` when None), 0 for a simulated clock."""
+    import time
+
+    if clock is None:
+        if not _monotonic_epoch:
+            _monotonic_epoch.append(time.time() - time.monotonic())
+        return _monotonic_epoch[0]
+    if getattr(clock, "simulated", False):
+        return 0.0
+    try:
+        return _epochs[clock]
+    except KeyError:
+        epoch = _epochs[clock] = time.time() - clock.now()
+        return epoch
+    except TypeError:  # a clock that cannot be weakly referenced: measured now
+        return time.time() - clock.now()
+
+
+def clock_kind(clock=None) -> str:
+    """CLOCK_ROS or CLOCK_SIMULATED: what the stamps of ``clock`` (via ``ros_epoch``) are."""
+    return CLOCK_SIMULATED if getattr(clock, "simulated", False) else CLOCK_ROS
 
 
 def time_ns(t: float) -> int:
@@ -216,13 +249,14 @@ def truth_marker_array(truth, t: float):
     return T["visualization_msgs/msg/MarkerArray"](markers=out)
 
 
-def goal_point(goal):
-    """/deskarm/goal: the target in robot_base; None for a goal that is not valid (not written)."""
+def goal_point(goal, t: Optional[float] = None):
+    """/deskarm/goal: the target in robot_base, stamped ``t`` (default: the goal's own time); None
+    for a goal that is not valid (not written)."""
     if goal is None or not goal.valid:
         return None
     p = goal.base_p_target
     return T["geometry_msgs/msg/PointStamped"](
-        header=header(goal.t, FRAME_ROBOT_BASE),
+        header=header(goal.t if t is None else t, FRAME_ROBOT_BASE),
         point=T["geometry_msgs/msg/Point"](x=float(p[0]), y=float(p[1]), z=float(p[2])))
 
 

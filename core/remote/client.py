@@ -9,6 +9,12 @@ server's wall clock). On one machine (loopback) both clocks are the same clock; 
 it includes the offset between the two clocks, so synchronise them (chrony/NTP: typically
 < 1 ms on a LAN) before trusting a cross-machine figure. The e-stop round trip needs no clock
 agreement: send and echo are both timed on this machine.
+
+Control: a client made with ``control=True`` claims the arm (``/deskarm/cmd/control``) and keeps
+re-claiming with its heartbeat until the server's status names it; goals, settings and re-arm
+count only from the client in control. ``take_control`` takes it from another client (an
+explicit hand-over). A watcher (``control=False``) never claims and never re-arms; it may STOP.
+A re-arm is a hold (``rearm``: /deskarm/cmd/rearm at 10 Hz until the server re-arms).
 """
 from __future__ import annotations
 
@@ -24,6 +30,8 @@ from core.remote import ros
 from core.remote.link import LinkOptions, open_session
 
 HEARTBEAT_HZ = 10.0
+CONTROL_WAIT_S = 5.0  # a controlling client's first command waits this long for the grant
+REARM_TIMEOUT_S = 5.0  # a re-arm hold gives up after this long without the server re-arming
 
 
 @dataclass(frozen=True)
@@ -42,8 +50,10 @@ class DeskClient:
     """Subscribes to a DeskServer's topics and sends commands back."""
 
     def __init__(self, link: LinkOptions, heartbeat: bool = True, hash_style: str = "rihs01",
-                 topics: Optional[tuple[str, ...]] = None, client_id: Optional[str] = None):
+                 topics: Optional[tuple[str, ...]] = None, client_id: Optional[str] = None,
+                 control: Optional[bool] = None):
         self.link = link
+        self.control = heartbeat if control is None else bool(control)  # claim the arm (a watcher does not)
         self.hash_style = hash_style
         self.client_id = client_id or f"client-{os.getpid()}-{os.urandom(3).hex()}"
         self._cond = threading.Condition()
@@ -56,7 +66,9 @@ class DeskClient:
         self._zenoh = open_session(link)
         domain = link.domain_id
         self._pubs = {topic: self._zenoh.declare_publisher(ros.key_expr(topic, msgtype, domain, hash_style))
-                      for topic, msgtype in ros.COMMANDS.items()}
+                      for topic, msgtype in ros.ALL_COMMANDS.items()}
+        self._take = False
+        self._granted = False  # control was granted once (the heartbeat stops claiming)
         self._subs = [self._zenoh.declare_subscriber(ros.key_pattern(topic, msgtype, domain),
                                                      self._callback(topic, msgtype))
                       for topic, msgtype in ros.TOPICS.items() if topics is None or topic in topics]
@@ -83,7 +95,10 @@ class DeskClient:
             self._hb_thread = None
 
     def close(self) -> None:
+        """Stop the heartbeat, give control back when this client holds it, close the session."""
         self.stop_heartbeat()
+        if self._zenoh is not None and self.in_control():
+            self.release_control()
         if self._zenoh is not None:
             self._zenoh.close()
             self._zenoh = None
@@ -97,8 +112,52 @@ class DeskClient:
     def _heartbeat_loop(self) -> None:
         period = 1.0 / HEARTBEAT_HZ
         while not self._hb_stop.is_set():
+            if self.control and not self._granted:  # claim until granted once; a take-over is never undone here
+                if self.in_control():
+                    self._granted = True
+                else:
+                    self._claim()
             self._send("/deskarm/cmd/heartbeat", ros.header(time.time(), self.client_id))
             self._hb_stop.wait(period)
+
+    # ---- control ------------------------------------------------------------------------------
+
+    def in_control(self) -> bool:
+        """True when the server's latest status names this client as the one in control."""
+        status = self.session()
+        return bool(status) and status.get("controller") == self.client_id
+
+    def _claim(self) -> None:
+        request = {"claim": self.client_id}
+        if self._take:
+            request["take"] = True
+        self._send("/deskarm/cmd/control", ros.json_msg(request))
+
+    def wait_control(self, timeout: float = CONTROL_WAIT_S) -> bool:
+        """Claim the arm until the server's status names this client (True), or False after ``timeout``."""
+        self.control = True
+        deadline = time.monotonic() + timeout
+        while not self.in_control():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            self._claim()
+            self.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("controller") == self.client_id,
+                          timeout=min(0.2, remaining))
+        return True
+
+    def take_control(self, timeout: float = CONTROL_WAIT_S) -> bool:
+        """Take the arm from whichever client holds it (an explicit hand-over); True once granted."""
+        self._take = True
+        try:
+            return self.wait_control(timeout)
+        finally:
+            self._take = False
+
+    def release_control(self) -> None:
+        """Give the arm back (another controller may claim it; the arm stays paused until one does)."""
+        self.control = False
+        self._send("/deskarm/cmd/control", ros.json_msg({"release": self.client_id}))
 
     # ---- receiving ----------------------------------------------------------------------------
 
@@ -182,19 +241,51 @@ class DeskClient:
                 return
             self._seq += 1
             attachment = ros.Attachment(self._seq, time.time_ns(), self._gid).encode()
-            self._pubs[topic].put(ros.serialize(msg, ros.COMMANDS[topic]), attachment=attachment)
+            self._pubs[topic].put(ros.serialize(msg, ros.ALL_COMMANDS[topic]), attachment=attachment)
 
-    def send_goal(self, base_p, frame_id: str = FRAME_ROBOT_BASE) -> None:
-        """Point the arm at ``base_p`` (x, y, z in m, robot_base): the server switches to manual mode."""
+    def _ensure_control(self, wait: bool) -> None:
+        if self.control and wait and not self.in_control():
+            self.wait_control()
+
+    def send_goal(self, base_p, frame_id: str = FRAME_ROBOT_BASE, wait: bool = True) -> None:
+        """Point the arm at ``base_p`` (x, y, z in m, robot_base): the server switches to manual mode.
+        A controlling client first waits (``wait``) until the server granted it control."""
+        self._ensure_control(wait)
         self._send("/deskarm/cmd/goal", ros.point_stamped(base_p, time.time(), frame_id))
 
     def send_estop(self, stop: bool = True) -> None:
-        """E-stop (True) or re-arm (False)."""
+        """E-stop (True). ``False`` is sent as asked, and refused by the server: re-arm with :meth:`rearm`."""
         self._send("/deskarm/cmd/estop", ros.bool_msg(stop))
 
-    def send_settings(self, settings: dict) -> None:
+    def send_settings(self, settings: dict, wait: bool = True) -> None:
         """Mode and settings, e.g. ``{"mode": "follow", "follow_id": 23}``."""
+        self._ensure_control(wait)
         self._send("/deskarm/cmd/settings", ros.json_msg(settings))
+
+    def rearm(self, timeout: float = REARM_TIMEOUT_S, stop: Optional[threading.Event] = None) -> bool:
+        """Hold the re-arm: /deskarm/cmd/rearm at 10 Hz until the server reports it re-armed (True),
+        ``timeout`` passed or ``stop`` was set (False). Needs control (a controller credential)."""
+        deadline = time.monotonic() + timeout
+        self._ensure_control(True)
+        period = 1.0 / HEARTBEAT_HZ
+        stop = stop or threading.Event()
+        while not stop.is_set():
+            status = self.session()
+            if status is not None and status.get("estopped") is False:
+                return True
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            self._send("/deskarm/cmd/rearm", ros.header(time.time(), self.client_id))
+            self.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("estopped") is False,
+                          timeout=min(period, remaining))
+        return False
+
+    def request_rearm(self) -> threading.Thread:
+        """:meth:`rearm` in a thread (for a caller that must not block: the window's bridge)."""
+        thread = threading.Thread(target=self.rearm, name="deskarm-rearm", daemon=True)
+        thread.start()
+        return thread
 
     def estop_round_trip(self, timeout: float = 2.0) -> Optional[float]:
         """Send an e-stop and wait for the server's /deskarm/estop echo saying it holds: seconds

@@ -12,9 +12,14 @@ the headless runner work unchanged on a remote desk:
 - ``RemoteBridge`` — a ``MotorBridge`` whose ``send(command)`` sends the command's target point
   as a goal (/deskarm/cmd/goal, robot_base): the serving machine runs its own control step,
   joint limits and workspace checks on it. ``joint_state()`` is the server's
-  /deskarm/joint_states/measured, e-stop and re-arm are /deskarm/cmd/estop. The client's
-  heartbeat runs while the bridge is connected, so the server pauses its arm when this
-  machine goes away.
+  /deskarm/joint_states/measured, e-stop is /deskarm/cmd/estop and re-arm a held
+  /deskarm/cmd/rearm (the window's own hold comes first). While the bridge is connected the
+  client claims control and sends its heartbeat, so the server pauses its arm when this machine
+  goes away.
+
+Credentials: this machine's ``remote/client.toml`` in the config folder (the controller.toml or
+viewer.toml that ``deskarm serve --pair`` made on the serving machine) when it exists; a server
+that refuses it is said in one line (``core.remote.security.refusal_line``).
 
 Times: a ``StereoFrame.t`` is the capture stamp (the server's wall clock) mapped onto the local
 session clock through this machine's wall clock — ``t = clock.now() - (time.time() - stamp)``,
@@ -102,7 +107,14 @@ class RemoteDesk:
 
         with self._lock:
             if self._client is None:
-                link = LinkOptions(connect=(self.endpoint,), scouting=False, domain_id=self.domain_id)
+                from core.remote.security import CredentialError, default_credential
+
+                try:
+                    credential = default_credential()
+                except CredentialError as exc:
+                    raise RemoteDeskError(str(exc)) from None
+                link = LinkOptions(connect=(self.endpoint,), scouting=False, domain_id=self.domain_id,
+                                   credential=credential)
                 try:
                     self._client = DeskClient(link, heartbeat=False)
                 except LinkError as exc:
@@ -240,7 +252,7 @@ class RemoteStereoCamera(CameraSource):
         if client is not None:
             from dataclasses import asdict
 
-            client.send_settings({"camera": asdict(settings)})
+            client.send_settings({"camera": asdict(settings)}, wait=False)
 
     @property
     def pair_id(self) -> str:
@@ -278,6 +290,10 @@ class RemoteStereoCamera(CameraSource):
                 missing.append(topic)
         if missing:
             heard = "it answers but sent no " + ", ".join(missing) if self.desk.last_heard() else "nothing arrived"
+            from core.remote.security import port_answers, refusal_line
+
+            if not self.desk.last_heard() and _refused(client) and port_answers(self.desk.endpoint):
+                raise RemoteDeskError(refusal_line((self.desk.endpoint,), client.link.credential))
             raise RemoteDeskError(
                 f"{self.desk.endpoint}: no desk server answered within {timeout:g} s ({heard}) — is "
                 "`deskarm serve` running on that machine, listening on that port, and the port open in its firewall?")
@@ -388,6 +404,7 @@ class RemoteBridge(MotorBridge):
             except RuntimeError as exc:
                 raise BridgeError(str(exc)) from None
             self._open = True
+            client.control = True  # the heartbeat loop claims the arm until the server grants it
             client.start_heartbeat()
             if self._estopped:  # an e-stop made while disconnected holds on the server too
                 client.send_estop(True)
@@ -424,7 +441,7 @@ class RemoteBridge(MotorBridge):
         unchanged = (self._last_goal is not None
                      and max(abs(a - b) for a, b in zip(target, self._last_goal)) < GOAL_EPS_M)
         if not unchanged or now - self._last_goal_mono >= GOAL_REFRESH_S:
-            client.send_goal(target, FRAME_ROBOT_BASE)
+            client.send_goal(target, FRAME_ROBOT_BASE, wait=False)
             self._last_goal, self._last_goal_mono = target, now
             self.goals_sent += 1
         self.commands_sent += 1
@@ -456,9 +473,10 @@ class RemoteBridge(MotorBridge):
             client.send_estop(True)
 
     def _on_rearm(self) -> None:
+        """The window's hold is done: hold the server's re-arm too (a thread, REARM_HOLD_S)."""
         client = self.desk.client
         if client is not None:
-            client.send_estop(False)
+            client.request_rearm()
 
     def _estop_text(self) -> str:
         held = self.desk.server_estopped()
@@ -471,6 +489,14 @@ class RemoteBridge(MotorBridge):
         elif self._open:
             self.message = f"remote arm on {self.desk.endpoint}"
         return super().status()
+
+
+def _refused(client) -> bool:
+    """True when the client reached no Zenoh peer at all (a refused handshake or nobody there)."""
+    try:
+        return not client._zenoh.info.peers_zid() and not client._zenoh.info.routers_zid()
+    except Exception:  # a closed session: say nothing more
+        return False
 
 
 def open_remote_desk(endpoint: str, profile, clock=None, timeout: float = CONNECT_TIMEOUT_S):

@@ -1,10 +1,19 @@
-"""How a remote desk reaches its peers: Zenoh configuration from a few options."""
+"""How a remote desk reaches its peers: Zenoh configuration from a few options.
+
+Local by default: a server listens on ``tcp/127.0.0.1:7447`` without scouting; a client listens
+nowhere (it only connects). Going on the network is the server's ``--network`` (see
+``app.cli_serve``). Credentials and access control come from ``core.remote.security``.
+"""
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import Optional
 
 DEFAULT_PORT = 7447
+LOCAL_LISTEN = f"tcp/127.0.0.1:{DEFAULT_PORT}"  # the server's default: this machine only
+NETWORK_LISTEN = f"tcp/0.0.0.0:{DEFAULT_PORT}"  # --network: every interface
+CONNECT_TIMEOUT_MS = 3000  # a strict client gives up on its endpoints after this long
 MODES = ("peer", "client")
 
 
@@ -16,12 +25,15 @@ class LinkError(RuntimeError):
 class LinkOptions:
     """Where a session listens and what it connects to."""
 
-    listen: tuple[str, ...] = ()  # endpoints to listen on, e.g. ("tcp/0.0.0.0:7447",)
+    listen: tuple[str, ...] = ()  # endpoints to listen on, e.g. ("tcp/127.0.0.1:7447",); () listens nowhere
     connect: tuple[str, ...] = ()  # endpoints (a router, the server) to connect to
-    mode: str = "peer"  # peer (LAN, default) | client (through a router only)
-    scouting: bool = True  # multicast scouting: find peers on the LAN without naming them
+    mode: str = "peer"  # peer (default) | client (through a router only)
+    scouting: bool = False  # multicast scouting: find peers on the LAN without naming them (off unless asked)
     domain_id: int = 0  # ROS_DOMAIN_ID: the first chunk of every key expression
     extra: dict = field(default_factory=dict)  # raw Zenoh config keys (json5 path -> value)
+    credential: Optional[object] = None  # security.Credential this session presents (client side)
+    security: Optional[object] = None  # security.ServerSecurity: usrpwd dictionary, mTLS, access control
+    strict_connect: bool = False  # opening fails (one clear line) when no connect endpoint accepts us
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -38,14 +50,27 @@ class LinkOptions:
         zenoh = import_zenoh()
         cfg = zenoh.Config()
         cfg.insert_json5("mode", json.dumps(self.mode))
-        cfg.insert_json5("scouting/multicast/enabled", json.dumps(bool(self.scouting)))
-        if self.listen:
-            cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
-        if self.connect:
-            cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
-        for key, value in self.extra.items():
+        for key, value in self.config_keys().items():
             cfg.insert_json5(key, json.dumps(value))
         return cfg
+
+    def config_keys(self) -> dict:
+        """The Zenoh config keys (json5 path -> value) of these options, without importing zenoh."""
+        keys: dict = {"mode": self.mode, "scouting/multicast/enabled": bool(self.scouting),
+                      "scouting/gossip/enabled": bool(self.scouting),
+                      "listen/endpoints": list(self.listen)}  # [] = listen nowhere (Zenoh's peer default is every interface)
+        if self.connect:
+            keys["connect/endpoints"] = list(self.connect)
+        if self.strict_connect and self.connect:
+            keys["connect/timeout_ms"] = CONNECT_TIMEOUT_MS
+            keys["connect/exit_on_failure"] = True
+        if self.credential is not None:
+            keys.update(self.credential.zenoh_keys())
+        if self.security is not None:
+            tls = any(ep.startswith(("tls/", "quic/")) for ep in self.listen)
+            keys.update(self.security.zenoh_keys(self.domain_id, tls_endpoints=tls))
+        keys.update(self.extra)
+        return keys
 
     def describe(self) -> str:
         parts = [self.mode]
@@ -54,6 +79,12 @@ class LinkOptions:
         if self.connect:
             parts.append("connecting to " + ", ".join(self.connect))
         parts.append("multicast scouting " + ("on" if self.scouting else "off"))
+        if self.security is not None:
+            parts.append("credentials required (controller drives, viewer watches and may STOP)")
+        elif self.listen:
+            parts.append("no credentials (anyone who reaches it drives the arm)")
+        if self.credential is not None and getattr(self.credential, "user", ""):
+            parts.append(f"as {self.credential.user}")
         return ", ".join(parts)
 
 
@@ -83,5 +114,9 @@ def open_session(options: LinkOptions):
     zenoh = import_zenoh()
     try:
         return zenoh.open(options.zenoh_config())
-    except Exception as exc:  # zenoh raises ZError for a busy port, a bad locator …
+    except Exception as exc:  # zenoh raises ZError for a busy port, a bad locator, a refused handshake …
+        if options.strict_connect and options.connect and "Unable to connect" in str(exc):
+            from core.remote.security import refusal_line
+
+            raise LinkError(refusal_line(options.connect, options.credential)) from None
         raise LinkError(f"could not open a Zenoh session ({options.describe()}): {exc}") from None

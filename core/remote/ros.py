@@ -11,12 +11,13 @@ writes ``TypeHashNotSupported`` instead: pass ``type_hash="humble"``). Subscribe
 any hash (``*``), so both forms are read. Every sample carries rmw_zenoh's attachment (≥ 0.2.4):
 int64 sequence number, int64 source timestamp (ns since the UNIX epoch), then the 16-byte
 publisher GID as zenoh-ext serializes a byte array (a 1-byte length 16, then the bytes) — 33
-bytes, little-endian. No liveliness tokens are declared, so rmw_zenoh's graph (``ros2 topic
-list``) does not see these publishers; data reaches a subscriber that names the topic.
+bytes, little-endian. The server declares rmw_zenoh's liveliness tokens (``core.remote.graph``)
+so ``ros2 node list`` / ``ros2 topic list`` / ``ros2 topic echo`` find its node and topics.
 
-Times: message stamps are wall-clock seconds (``time.time()``) — the capture instant mapped from
-the session's monotonic clock — so a client on another machine can compute latency, as far as
-the two machines' clocks agree.
+Times: message stamps are ROS time — wall-clock seconds since the epoch, the capture instant
+mapped from the session's monotonic clock by ``core.record.topics.ros_epoch`` (the very offset the
+recordings use, so a frame has the same stamp on the stream and in a bag) — so a client on
+another machine can compute latency, as far as the two machines' clocks agree.
 """
 from __future__ import annotations
 
@@ -50,14 +51,26 @@ TOPICS: dict[str, str] = {
     "/deskarm/estop": "std_msgs/msg/Bool",
     "/deskarm/session": "std_msgs/msg/String",
 }
+# standard ROS 2 topics the server publishes too (not recorded: the bag has the deskarm ones)
+STANDARD_TOPICS: dict[str, str] = {
+    "/joint_states": "sensor_msgs/msg/JointState",  # measured (commanded when the arm has no feedback)
+    "/robot_description": "std_msgs/msg/String",  # URDF, transient local (a late joiner gets it)
+}
 # client -> server
 COMMANDS: dict[str, str] = {
     "/deskarm/cmd/goal": "geometry_msgs/msg/PointStamped",
-    "/deskarm/cmd/estop": "std_msgs/msg/Bool",
+    "/deskarm/cmd/estop": "std_msgs/msg/Bool",  # true = STOP (anyone who sees the arm); false is refused
     "/deskarm/cmd/settings": "std_msgs/msg/String",
-    "/deskarm/cmd/heartbeat": "std_msgs/msg/Header",
+    "/deskarm/cmd/heartbeat": "std_msgs/msg/Header",  # frame_id = the controlling client's id
+    "/deskarm/cmd/rearm": "std_msgs/msg/Header",  # held (sent at 10 Hz) for REARM_HOLD_S by the controller
+    "/deskarm/cmd/control": "std_msgs/msg/String",  # JSON {"claim"|"release": id, "take": bool}
 }
-ALL_TOPICS = {**TOPICS, **COMMANDS}
+# the ROS interface's commands (a ROS 2 machine with rmw_zenoh and the controller credential)
+ROS_COMMANDS: dict[str, str] = {
+    "/target_position": "geometry_msgs/msg/Point",  # robot_base, m: a manual goal
+}
+ALL_COMMANDS = {**COMMANDS, **ROS_COMMANDS}
+ALL_TOPICS = {**TOPICS, **STANDARD_TOPICS, **ALL_COMMANDS}
 IMAGE_TOPICS = {"left": "/deskarm/camera/left/image/compressed", "right": "/deskarm/camera/right/image/compressed"}
 HUMBLE_HASH = "TypeHashNotSupported"  # what rmw_zenoh writes on Humble, which has no type hashes
 GID_SIZE = 16

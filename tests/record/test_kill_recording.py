@@ -86,7 +86,7 @@ def kill_a_recording_run(bag: Path, wait_s: float) -> float:
             time.sleep(0.05)
         time.sleep(wait_s)
         assert proc.poll() is None, proc.stderr.read().decode()
-        killed_at = time.monotonic()
+        killed_at = time.time()  # the bag's log times are ROS time: wall-clock since the epoch
         proc.send_signal(signal.SIGKILL)
         proc.wait(30)
     finally:

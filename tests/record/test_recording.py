@@ -41,6 +41,8 @@ def read_back(folder: Path) -> tuple[dict[str, list], dict[str, str]]:
 
 
 class FakeClock:
+    simulated = True  # a --fast run's clock: the recording's stamps are its own times (ros_epoch 0)
+
     def __init__(self, t: float = 100.0):
         self.t = t
 
@@ -195,7 +197,7 @@ def test_recorded_values_equal_what_the_loop_handed_the_recorder(tmp_path):
 
 
 def test_a_full_queue_drops_the_oldest_image_pair_and_never_blocks_the_caller(tmp_path):
-    rec = Recorder(tmp_path / "bag", session_info_for_tests(), queue_size=4)
+    rec = Recorder(tmp_path / "bag", session_info_for_tests(), queue_size=4, clock=FakeClock(1.0))
     entered, release = threading.Event(), threading.Event()
     write_frame = rec._write_frame
 

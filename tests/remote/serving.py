@@ -36,15 +36,39 @@ def zenoh_loopback_problem() -> str:
         return f"zenoh cannot open a loopback session on this machine: {exc}"
 
 
+class Served:
+    """A running `deskarm serve`: its endpoint and every line it printed (stdout and stderr)."""
+
+    def __init__(self, endpoint: str, proc, lines: "queue.Queue", output: list):
+        self.endpoint = endpoint
+        self.proc = proc
+        self._lines = lines
+        self.output = output
+
+    def wait_line(self, text: str, timeout: float = 30.0) -> str:
+        """The first line from now on containing ``text`` (AssertionError after ``timeout`` s)."""
+        import time
+
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                line = self._lines.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                raise AssertionError(f"deskarm serve printed no line with {text!r}:\n" + "".join(self.output)) from None
+            assert line is not None, "deskarm serve exited:\n" + "".join(self.output)
+            if text in line:
+                return line
+
+
 @contextmanager
-def served_desk(home: Path, scenario: str):
-    """`python -m app.cli serve --camera sim --scenario SCENARIO`; yields its endpoint once it
-    serves, stops it with Ctrl+C (SIGINT) afterwards and checks it stopped cleanly."""
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+def serve(home: Path, scenario: str, *args: str, proto: str = "tcp"):
+    """`python -m app.cli serve --camera sim --scenario SCENARIO ARGS…` on a free loopback port;
+    yields a ``Served`` once it serves, stops it with Ctrl+C (SIGINT) and checks it stopped cleanly."""
+    endpoint = f"{proto}/127.0.0.1:{free_port()}"
     env = dict(os.environ, DESKARM_HOME=str(home), PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "serve", "--camera", "sim", "--scenario", scenario,
-         "--listen", endpoint, "--no-scouting"],
+         "--listen", endpoint, *args],
         cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines: queue.Queue = queue.Queue()
     output: list[str] = []
@@ -56,13 +80,10 @@ def served_desk(home: Path, scenario: str):
         lines.put(None)
 
     threading.Thread(target=pump, daemon=True).start()
+    served = Served(endpoint, proc, lines, output)
     try:
-        while True:
-            line = lines.get(timeout=30)
-            assert line is not None, "deskarm serve exited early:\n" + "".join(output)
-            if "Ctrl+C stops" in line:
-                break
-        yield endpoint
+        served.wait_line("Ctrl+C stops", timeout=60)
+        yield served
     finally:
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)
@@ -74,3 +95,11 @@ def served_desk(home: Path, scenario: str):
             raise AssertionError("deskarm serve did not stop on Ctrl+C (SIGINT):\n" + "".join(output))
     assert rc == 0, f"deskarm serve exit code {rc}:\n" + "".join(output)
     assert any("stopped after" in line for line in output), "".join(output)
+
+
+@contextmanager
+def served_desk(home: Path, scenario: str):
+    """`deskarm serve --camera sim --scenario SCENARIO` on a free loopback port (no credentials:
+    loopback only); yields its endpoint once it serves, stops it afterwards."""
+    with serve(home, scenario) as served:
+        yield served.endpoint

@@ -114,7 +114,7 @@ def test_keys_carry_the_rihs01_type_hash_rmw_zenoh_expects(server):
 
 def test_estop_from_the_client_stops_the_arm_and_echoes(server):
     with client_for(server) as client:
-        client.send_estop(False)  # a clean start whatever ran before
+        assert client.rearm(timeout=WAIT), f"no re-arm: {client.session()}"  # a clean start whatever ran before
         client.send_settings({"mode": "lissajous", "lissajous_running": True})
         moving(client)
         round_trip = client.estop_round_trip(timeout=WAIT)
@@ -127,15 +127,20 @@ def test_estop_from_the_client_stops_the_arm_and_echoes(server):
         after_frames(client, 15)
         assert client.joints("commanded") == held, "the commanded joints moved after the e-stop"
         assert client.count(COMMANDED) == count, "commands were still sent after the e-stop"
-        # re-armed, it moves again (so the hold above was the e-stop's doing)
+        # one re-arm message is refused; held, it re-arms and the arm moves again (so the hold
+        # above was the e-stop's doing)
         client.send_estop(False)
+        r = client.wait_for("/deskarm/session", lambda r: any("re-arm is held" in t for t in
+                                                              __import__("json").loads(r.msg.data)["refused"]), timeout=WAIT)
+        assert r is not None and client.session()["estopped"] is True, client.session()
+        assert client.rearm(timeout=WAIT), f"the held re-arm did not re-arm: {client.session()}"
         session_where(client, lambda s: not s["estopped"], "re-armed")
         moving(client)
 
 
 def test_a_dropped_link_pauses_the_arm_until_heartbeats_return(server):
     with client_for(server) as client, client_for(server, heartbeat=False) as observer:
-        client.send_estop(False)
+        assert client.rearm(timeout=WAIT), client.session()
         client.send_settings({"mode": "lissajous", "lissajous_running": True})
         session_where(client, lambda s: s["link"] == "ok" and not s["paused"], "a live link")
         moving(client)

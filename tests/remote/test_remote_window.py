@@ -232,6 +232,8 @@ def test_camera_settings_and_a_bridge_switch_while_remote(remote_session, observ
     from core.settings import CameraSettings
 
     s = remote_session
+    s.bridge.connect()  # the session claims control of the served desk (settings are the controller's)
+    assert s.camera.desk.client.wait_control(WAIT), observer.session()
     s.camera.set_settings(CameraSettings(gain=6.0, exposure=0.5))  # the window's camera sliders
     r = observer.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("camera_settings", {})
                           .get("gain") == 6.0, timeout=WAIT)
