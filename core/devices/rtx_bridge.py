@@ -242,6 +242,7 @@ class RtxBridge(MotorBridge):
         self._link_down = threading.Event()
         self._link_down.set()
         self._auto_init_due = False  # ?init=auto and the controller restarted: initialise again
+        self._connected_before = False  # a later connect is a reconnect (?init=auto: not blocking)
 
     # ---------------------------------------------------------------- lifecycle
 
@@ -254,7 +255,9 @@ class RtxBridge(MotorBridge):
 
         BridgeError with a plain message: permission denied, port busy, no such port, no answer
         (controller off, wrong cable, wrong baud rate), or answers that are not the RTX's.
-        With ``?init=auto`` an arm that needs it is initialised before this returns.
+        With ``?init=auto`` an arm that needs it is initialised before the first connect returns;
+        on a reconnect to a restarted controller the I/O thread does it (motion waits, the caller
+        does not).
         """
         if self._connected:
             return
@@ -293,6 +296,7 @@ class RtxBridge(MotorBridge):
         if restarted:
             self._lose_init("the controller restarted (power cycle or reset): its encoder positions are lost "
                             "— initialise again")
+        first_connect, self._connected_before = not self._connected_before, True
         self._stop = threading.Event()
         self._connected = True
         self._link_down.clear()
@@ -302,7 +306,9 @@ class RtxBridge(MotorBridge):
             self.progress_sink(InitProgress(
                 "", 0.0, f"{self.init_reason} — motion waits for it: add ?init=auto to the bridge URL or run "
                 "deskarm rtx-init first", done=True))
-        if self.rtx_url.auto_init and not self.ready and not self._estopped:
+        if self.rtx_url.auto_init and not self.ready and not self._estopped and not first_connect:
+            self._auto_init_due = True  # a reconnect to a restarted controller: the I/O thread initialises
+        elif self.rtx_url.auto_init and not self.ready and not self._estopped:
             try:
                 self.initialise(progress=self.progress_sink)  # before the I/O thread: the line is ours
             except InitCancelled:

@@ -405,3 +405,19 @@ def test_the_emulator_program_killed_and_restarted_is_the_same_arm_behind_a_repl
     finally:
         bridge.shutdown()
         prog.stop()
+
+
+def test_init_auto_reinitialises_a_power_cycled_controller_after_a_reconnect_without_blocking(emulator, profile):
+    bridge = RtxBridge(f"rtx:{emulator.path}?init=auto", profile)
+    try:
+        bridge.connect()  # the first connect initialises before it returns
+        assert bridge.ready
+        bridge.disconnect()
+        emulator.controller.restart()  # power cycle while unplugged
+        bridge.connect()  # sees the restart; returns at once, the I/O thread initialises
+        assert not bridge.ready and bridge.restarts_seen == 2  # (the I/O thread may have begun)
+        assert bridge.wait_for_state(TIMEOUT_S * 2) is not None and bridge.ready
+        bridge.send(cmd(profile.q_home))
+        assert moved(bridge, profile.q_home) is not None
+    finally:
+        bridge.shutdown()
