@@ -50,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sim-skew-ms", type=float, default=0.0, metavar="N",
                    help="simulated desk: the right camera's frame is captured N ms after the left one "
                         "(unsynchronised webcams)")
+    p.add_argument("--sim-realism", nargs="?", const="webcam", default=None, metavar="PRESET",
+                   help="simulated desk: images as a cheap webcam delivers them (blur, rolling shutter, flicker, "
+                        "noise, vignetting, distortion, JPEG); PRESET: webcam (default) or off")
     p.add_argument("--remote", default=None, metavar="ENDPOINT",
                    help="open the window (or headless run) on a desk served by `deskarm serve` on another "
                         "machine, e.g. tcp/192.168.1.20:7447")
@@ -286,7 +289,8 @@ def _main(argv: list[str] | None) -> int:
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
         event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
-        markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms, detectors=detectors,
+        markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms, sim_realism=args.sim_realism,
+        detectors=detectors,
         follow_object=args.follow_object, object_intercept=not args.no_intercept,
         compensate_skew=not args.no_skew_compensation, object_roi_search=args.object_roi,
         object_tracker=args.object_tracker, object_detect_every=args.object_detect_every,

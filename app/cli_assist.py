@@ -1,6 +1,6 @@
 """``deskarm assist-trials``: the assistive arm's whole loop on the simulated desk, many times.
 
-    deskarm assist-trials [--n 50] [--mode touch|scan2|scan1] [--vibration] [--no-tracker]
+    deskarm assist-trials [--n 50] [--mode touch|scan2|scan1] [--vibration] [--no-tracker] [--realistic]
                           [--detector circles|desk] [--seed S] [--scan-period S] [--depth size|range] [--json]
 
 Each trial: a lift panel (the ``panel`` scene's, moved by up to ±1 cm and turned by up to ±0.1 rad,
@@ -101,6 +101,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=("touch", "scan2", "scan1"), default="touch", help="input mode (default touch)")
     p.add_argument("--vibration", action="store_true", help="shake the hand (0.5 mm, 0.25°, 4–11 Hz)")
     p.add_argument("--no-tracker", action="store_true", help="no KCF tracker between detector frames")
+    p.add_argument("--realistic", action="store_true",
+                   help="the hand camera's images as a cheap webcam's (core.sim.realism's webcam preset: blur, "
+                        "rolling shutter, flicker, noise, vignetting, distortion, JPEG)")
     p.add_argument("--detector", choices=ASSIST_DETECTORS, default="circles",
                    help="the hand camera's button detector: circles (default: the buttons' round faces) or desk "
                         "(the shipped learned model's button boxes)")
@@ -272,7 +275,8 @@ class AssistTrials:
     """Builds the arm, desk, camera and detector once; ``run_trial(i)`` runs one trial."""
 
     def __init__(self, mode: str = "touch", vibration: bool = False, tracker: bool = True, seed: int = 0,
-                 scan_period_s: float = 1.0, depth_source: str = "size", detector: str = "circles"):
+                 scan_period_s: float = 1.0, depth_source: str = "size", detector: str = "circles",
+                 realistic: bool = False):
         from core.motion.assist import AssistConfig
         from core.motion.assist_loop import AssistLoop
         from core.kinematics.clik import ClikKinematics
@@ -292,6 +296,9 @@ class AssistTrials:
         self.kin = ClikKinematics(load_profile("assistive_5dof"))
         self.desk = SimDesk(SimRig(), "static", seed=self.seed)
         self.camera = SimHandCamera(self.desk, self.kin, HandCameraConfig(vibration=vibration), seed=self.seed)
+        self.realistic = bool(realistic)
+        if self.realistic:
+            self.camera = _RealisticHandCamera(self.camera, self.seed)
         self.servo = IbvsController(self.kin, self.camera.K, IbvsConfig(axis_tilt_rad=AXIS_TILT_RAD, gain=SERVO_GAIN,
                                                                          max_linear_speed_m_s=MAX_LINEAR_SPEED_M_S))
         self.detector = _TimedDetector(make_assist_detector(detector))
@@ -388,6 +395,28 @@ class AssistTrials:
         return res
 
 
+class _RealisticHandCamera:
+    """A hand camera whose images pass through the webcam realism preset (``--realistic``): the
+    same poses and truth, each frame's blur, shutter, flicker, noise and JPEG drawn from (seed, t)."""
+
+    def __init__(self, camera, seed: int):
+        from core.sim.realism import WEBCAM
+
+        self._camera, self._seed, self.preset = camera, int(seed) & 0x7FFFFFFF, WEBCAM
+
+    def __getattr__(self, name):  # K, config, project, base_T_camera, …: the wrapped camera's
+        return getattr(self._camera, name)
+
+    def render(self, q, t: float, boxes: bool = False):
+        from dataclasses import replace
+
+        from core.sim.realism import apply_realism
+
+        frame = self._camera.render(q, t, boxes=boxes)
+        rng = np.random.default_rng([self._seed, int(round(float(t) * 1e6)) & 0x7FFFFFFF, 27])
+        return replace(frame, image=apply_realism(frame.image, rng, float(t), self.preset))
+
+
 def summarise(results: list, mode: str, vibration: bool, tracker: bool, detector: str, wall_s: float,
               timing: Optional[dict] = None) -> dict:
     dist = [r.final_distance_mm for r in results if r.final_distance_mm is not None]
@@ -419,9 +448,10 @@ def summarise(results: list, mode: str, vibration: bool, tracker: bool, detector
 
 
 def run_trials(n: int, mode: str = "touch", vibration: bool = False, tracker: bool = True, seed: int = 0,
-               scan_period_s: float = 1.0, depth_source: str = "size", detector: str = "circles") -> tuple[dict, list]:
+               scan_period_s: float = 1.0, depth_source: str = "size", detector: str = "circles",
+               realistic: bool = False) -> tuple[dict, list]:
     t0 = time.perf_counter()
-    runner = AssistTrials(mode, vibration, tracker, seed, scan_period_s, depth_source, detector)
+    runner = AssistTrials(mode, vibration, tracker, seed, scan_period_s, depth_source, detector, realistic)
     results = [runner.run_trial(i) for i in range(n)]
     timed = runner.detector
     timing = {"detect_ms_per_call": round(1000 * timed.seconds / timed.calls, 2) if timed.calls else None,
@@ -429,6 +459,7 @@ def run_trials(n: int, mode: str = "touch", vibration: bool = False, tracker: bo
                                     if runner.step_frames else None)}
     summary = summarise(results, mode, vibration, tracker, runner.detector_name, time.perf_counter() - t0, timing)
     summary["depth"] = depth_source
+    summary["realistic"] = bool(realistic)
     return summary, results
 
 
@@ -443,7 +474,7 @@ def run(command: str, argv: list[str]) -> int:
         return 2
     try:
         summary, results = run_trials(args.n, args.mode, args.vibration, not args.no_tracker, args.seed,
-                                      args.scan_period, args.depth, args.detector)
+                                      args.scan_period, args.depth, args.detector, args.realistic)
     except FileNotFoundError as exc:  # the desk model's file is missing: its message names the fix
         print(f"{PROG}: {exc}", file=sys.stderr)
         return 2

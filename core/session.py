@@ -60,6 +60,8 @@ class SessionOptions:
     remote: Optional[str] = None
     # simulated desk only: the right view is captured this much later than the left (ms, 0…100)
     sim_skew_ms: float = 0.0
+    # simulated desk only: a realism preset (core.sim.realism, e.g. "webcam") applied to every render
+    sim_realism: Optional[str] = None
     # detectors of marker-less objects (registry names, e.g. ("hsv",)): run on every frame after the
     # markers, matched across the views, triangulated and tracked (``DeskSession.object_perception``)
     detectors: tuple[str, ...] = ()
@@ -119,6 +121,13 @@ class SessionOptions:
             raise ValueError(f"unknown --scenario value {self.scenario!r}; valid: {', '.join(SCENARIOS)}")
         if not (isinstance(self.sim_skew_ms, (int, float)) and 0.0 <= self.sim_skew_ms <= MAX_SIM_SKEW_MS):
             raise ValueError(f"--sim-skew-ms {self.sim_skew_ms!r} is outside 0…{MAX_SIM_SKEW_MS:g} ms")
+        if self.sim_realism is not None:
+            from core.sim.realism import preset_named
+
+            try:
+                preset_named(self.sim_realism)
+            except ValueError as exc:
+                raise ValueError(f"--sim-realism: {exc}") from None
         load_profile(self.robot)  # raises ProfileError naming the valid profiles
         if self.markers:
             load_markers(self.markers)  # raises MarkersError naming the file and the key
@@ -194,6 +203,13 @@ class DeskSession:
                 camera.skew_s = options.sim_skew_ms / 1000.0
             else:
                 banners.append(f"--sim-skew-ms only delays the simulated desk's right view; {camera.name} ignores it")
+        if options.sim_realism is not None:
+            from core.sim.realism import preset_named
+
+            if getattr(camera, "kind", "") == "sim":
+                camera.realism = preset_named(options.sim_realism)
+            elif preset_named(options.sim_realism) is not None:
+                banners.append(f"--sim-realism only changes the simulated desk's images; {camera.name} ignores it")
         tool_marker = tool_marker_of(profile)
         if hasattr(camera, "set_tool_marker"):
             try:  # the simulated arm carries the tool marker

@@ -11,6 +11,10 @@ the previous images are delivered again, flagged ``repeated``, and nothing is re
 says how much later the right view is, as for real webcams where ``t = min(t_left, t_right)``).
 With 0 (the default) both views show the same instant, exactly as before.
 
+``realism`` (a ``core.sim.realism`` preset or its name, e.g. "webcam") passes each rendered pair
+through ``apply_realism``: blur, rolling shutter, flicker, sensor noise, vignetting, distortion and
+JPEG, drawn from (seed, frame time). None (the default) delivers the renders as before.
+
 ``show_board`` puts a calibration board in front of the cameras (while the calibration wizard is
 open): painted over the desk, held still at each of BOARD_POSES varied poses for BOARD_HOLD_S of
 the camera's clock, then moved to the next, so the wizard can capture it like a real one.
@@ -32,6 +36,7 @@ from core.messages import SequenceCounter, StereoFrame
 from core.settings import CameraSettings, replace_field
 from core.sim.board_render import board_overlay, held_board_poses, paint_overlay, sim_rig_truth
 from core.sim.desk import SimDesk
+from core.sim.realism import apply_realism, preset_named
 from core.sim.rig import SimRig
 from core.vision.calibration import StereoCalibration
 from core.vision.cameras import CameraControl, ClockPacedSource, check_side
@@ -77,8 +82,9 @@ class SimStereoCamera(ClockPacedSource):
     kind = "sim"
 
     def __init__(self, scenario="static", fps: float = 30.0, clock=None, seed: int = 0,
-                 marker_ids=(23, 50), rig=None, skew_s: float = 0.0, **desk_options):
+                 marker_ids=(23, 50), rig=None, skew_s: float = 0.0, realism=None, **desk_options):
         super().__init__(clock)
+        self.realism = preset_named(realism)  # RealismPreset or None: what a webcam adds to each render
         if not (1.0 <= fps <= 240.0):
             raise ValueError(f"camera fps = {fps} is outside 1…240")
         self._skew_s = _check_skew(skew_s)
@@ -239,6 +245,9 @@ class SimStereoCamera(ClockPacedSource):
             left, right, truth = self.desk.render(t - self._t0, arm)
             if skew:  # the right view of the scene skew later (truth stays the left view's instant)
                 right = self.desk.render(t - self._t0 + skew, arm)[1]
+            if self.realism is not None:  # a webcam's blur, shutter, flicker, noise and JPEG, per frame
+                rng = np.random.default_rng([self.desk.seed & 0x7FFFFFFF, int(round((t - self._t0) * 1e6)) & 0x7FFFFFFF])
+                left, right = apply_realism((left, right), rng, t - self._t0, self.realism)
             left.flags.writeable = right.flags.writeable = False  # they may be delivered again
             self._desk_key, self._desk_render = desk_key, (left, right, truth)
             self.frames_rendered += 1
