@@ -11,6 +11,12 @@ backoff as the window's bridge worker (``core.devices.reconnect.Reconnector``), 
 counts the losses (``bridge_disconnects``) and the time without a link (``disconnected_s``).
 Per-frame samples are kept in bounded reservoirs, so a soak of any length has a flat memory.
 
+On the simulated desk the run is scored against the ground truth by ``core.sim.scoring`` (markers,
+following a marker, the cups game) and ``core.sim.object_scoring`` (marker-less objects), fed this
+run's events (frames with their truth, perception results and goals; commands; joint states): the
+same scores a recording or a remote run gets without this runner. Teleoperation and the settled
+reach error are still scored here (they read the targeter's and the bridge's state).
+
 With ``--record [PATH]`` the run is recorded (``core.record.Recorder``: a rosbag2 folder, MCAP):
 every frame, perception result, command, joint state, e-stop change and camera→arm change is
 handed to the recorder's thread without waiting; a failing disk stops the recording, not the run.
@@ -32,18 +38,20 @@ from core.devices.bridge import BridgeError
 from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
-from core.sim.scenarios import thing_kind
-from core.sim.scoring import CupsScore, FollowScore
+from core.sim.object_scoring import (  # noqa: F401 (label_matches, label_specificity: re-exported for the tests)
+    ObjectFollowScore,
+    detector_labels,
+    label_matches,
+    label_specificity,
+    note_objects,
+    object_follow_summary,
+    objects_summary,
+)
+from core.sim.scoring import CommandEvent, FrameEvent, MarkerScore, TruthScore, percentile, rounded
 
 MAX_SAMPLES = 20_000  # samples kept per metric: a p95 from this many is within ~0.3 percentile points
 RECENT_PERCEPTION = 60  # frames behind the status line's perception figure (2 s at 30 fps)
 RECENT_ERROR_3D = 120  # marker observations behind the status line's 3D error figure
-OBJECT_SEEN_M = 0.03  # an object observation this near its truth (same label) counts as seeing it
-FAST_OBJECT_M_S = 0.15  # error_3d_mm_*_moving: truth objects at least this fast (unsynchronised webcams)
-FOLLOW_REACH_TOL_M = 0.01  # object following is scored while the true aim is within this of the reachable space
-FOLLOW_ON_AIM_M = 0.01  # … from the first time the tool came this near its true aim (not the sprint there)
-REACHED_M = 0.005  # time_to_reach_stopped: the tool within this of the approach's end
-ARRIVAL_WINDOW_S = 0.06  # arrival speed: tool displacement over this window (three 50 Hz ticks) / its length
 TELEOP_SETTLE_S = 0.5  # teleop tracking is scored from this long after (re)entering FOLLOWING (the sprint there)
 TELEOP_GESTURES = ("corner", "calibrate", "rejected", "end")  # the gesture events the JSON lists
 
@@ -95,18 +103,6 @@ class Reservoir(list):
         return self
 
 
-def rounded(v, nd: int = 3):
-    """A summary figure rounded to ``nd`` places (None stays None: nothing was measured)."""
-    return None if v is None else round(v, nd)
-
-
-def percentile(values, q: float) -> Optional[float]:
-    """The q-th percentile of ``values`` (None when empty)."""
-    if not len(values):
-        return None
-    return float(np.percentile(np.asarray(values, dtype=float), q))
-
-
 @dataclass
 class RunMetrics:
     """What the headless runner measures; ``summary()`` is the JSON object it prints."""
@@ -116,15 +112,14 @@ class RunMetrics:
     # per-frame samples, bounded (MAX_SAMPLES each, read at creation); one seed per metric
     perception_ms: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 1))  # computed frames (ms)
     latency_ms: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 2))  # frame -> bytes (ms)
-    error_3d_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 3))  # vs ground truth (mm)
+    # markers vs ground truth (core.sim.scoring): error_3d_mm (mm), visible_pairs, seen_pairs
+    markers: MarkerScore = field(default_factory=lambda: MarkerScore(Reservoir(MAX_SAMPLES, 3)))
     reach_error_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 4))  # tip vs aim (mm)
     # tip vs where it should point by the ground truth (simulated desk): unlike the aim, this sees a
     # wrong camera→arm transform (the aim is computed through it)
     reach_error_true_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 5))
     recent_perception_ms: deque = field(default_factory=lambda: deque(maxlen=RECENT_PERCEPTION), repr=False)
     recent_error_3d_mm: deque = field(default_factory=lambda: deque(maxlen=RECENT_ERROR_3D), repr=False)
-    visible_pairs: int = 0  # (frame, marker) pairs visible in both views by ground truth
-    seen_pairs: int = 0  # of those, how many perception found
     commands_sent: int = 0
     limit_violations: int = 0
     unreachable_commands: int = 0
@@ -144,7 +139,8 @@ class RunMetrics:
     object_error_mm: dict = field(default_factory=dict)  # kind -> Reservoir (mm)
     object_id_switches: int = 0
     object_velocity_error_mm_s: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 7))
-    # truth objects moving at ≥ FAST_OBJECT_M_S: their 3D error alone (the skew compensation's case)
+    # truth objects moving at ≥ FAST_OBJECT_M_S: their 3D error alone (the skew compensation's case);
+    # these object fields are those of core.sim.object_scoring.ObjectCounts, which counts into them
     object_error_fast_mm: Reservoir = field(default_factory=lambda: Reservoir(MAX_SAMPLES, 8))
     # following a marker-less object (--follow-object; ``following`` is True then)
     following: bool = False
@@ -174,40 +170,31 @@ class RunMetrics:
             self.object_error_mm[kind] = Reservoir(MAX_SAMPLES, 100 + len(self.object_error_mm))
         return self.object_error_mm[kind]
 
+    @property
+    def error_3d_mm(self) -> Reservoir:
+        """The markers' 3D errors vs the ground truth (mm)."""
+        return self.markers.errors_mm
+
+    @property
+    def visible_pairs(self) -> int:
+        """(frame, marker) pairs visible in both views by the ground truth."""
+        return self.markers.visible_pairs
+
+    @property
+    def seen_pairs(self) -> int:
+        """Of those, how many perception found."""
+        return self.markers.seen_pairs
+
     def object_summary(self) -> dict:
         """The marker-less objects' part of the JSON (empty without --detector)."""
         if not self.objects:
             return {}
-
-        kinds = sorted(self.object_error_mm)
-        return {
-            "object_perception_ms_p50": rounded(percentile(self.object_perception_ms, 50)),
-            "targets_seen_ratio": rounded(self.object_seen_pairs / self.object_visible_pairs
-                                    if self.object_visible_pairs else 0.0),
-            "error_3d_mm_p50_by_kind": {k: rounded(percentile(self.object_error_mm[k], 50)) for k in kinds},
-            "error_3d_mm_p95_by_kind": {k: rounded(percentile(self.object_error_mm[k], 95)) for k in kinds},
-            "id_switches": self.object_id_switches,
-            "velocity_error_mm_s_p50": rounded(percentile(self.object_velocity_error_mm_s, 50)),
-            "error_3d_mm_p50_moving": rounded(percentile(self.object_error_fast_mm, 50)),
-            "error_3d_mm_p95_moving": rounded(percentile(self.object_error_fast_mm, 95)),
-            "moving_samples": self.object_error_fast_mm.seen,
-            **self.follow_summary(),
-        }
+        return {"object_perception_ms_p50": rounded(percentile(self.object_perception_ms, 50)),
+                **objects_summary(self), **self.follow_summary()}
 
     def follow_summary(self) -> dict:
         """The object-following part of the JSON (empty unless --follow-object)."""
-        if not self.following:
-            return {}
-
-        return {
-            "object_follow_error_mm_p50": rounded(percentile(self.object_follow_error_mm, 50)),
-            "object_follow_error_mm_p95": rounded(percentile(self.object_follow_error_mm, 95)),
-            "object_follow_samples": self.object_follow_error_mm.seen,
-            "object_stops": self.object_stops,
-            "object_approaches": self.object_approaches,
-            "arrival_speed_mm_s_p50": rounded(percentile(self.arrival_speed_mm_s, 50)),
-            "time_to_reach_stopped_s_p50": rounded(percentile(self.time_to_reach_stopped_s, 50)),
-        }
+        return object_follow_summary(self) if self.following else {}
 
     def summary(self) -> dict:
         return {
@@ -218,9 +205,7 @@ class RunMetrics:
             "perception_ms_p95": rounded(percentile(self.perception_ms, 95)),
             "latency_ms_p50": rounded(percentile(self.latency_ms, 50)),
             "latency_ms_p95": rounded(percentile(self.latency_ms, 95)),
-            "error_3d_mm_p50": rounded(percentile(self.error_3d_mm, 50)),
-            "error_3d_mm_p95": rounded(percentile(self.error_3d_mm, 95)),
-            "markers_seen_ratio": rounded(self.seen_pairs / self.visible_pairs if self.visible_pairs else 0.0),
+            **self.markers.summary(),  # error_3d_mm_p50/p95, markers_seen_ratio
             "commands_sent": self.commands_sent,
             "limit_violations": self.limit_violations,
             "reach_error_mm_p50": rounded(percentile(self.reach_error_mm, 50)),
@@ -315,16 +300,8 @@ class HeadlessRunner:
         self._object_labels = detector_labels(session.object_perception)
         self._object_ids: dict[tuple, int] = {}  # (truth id, label) -> object_id of its last matched observation
         self._object_truth_prev: dict[int, tuple[float, np.ndarray]] = {}  # truth id -> (t, position)
-        # following an object: the truth's motion (truth id -> (t, position, velocity)), the truth
-        # object the followed observation is, the tool's recent positions and the approach scored
-        self._truth_motion: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
-        self._followed_truth_id: Optional[int] = None
-        self._follow_on_aim = False
-        self._follow_object_id: Optional[int] = None
-        self._tool_track: deque = deque(maxlen=16)  # (t, tool position) per control step
-        self._approach_scored: dict[int, set] = {}  # approach number -> {"reach", "arrival"} done
-        self._approach_seen = 0
-        self._approach_info: Optional[tuple] = None  # (number, t0, t_end, goal) of the latest approach
+        aim = lambda p: session.targeter.pointing.apply(p)  # noqa: E731 (the targeter's rule at the time)
+        self.object_follow = ObjectFollowScore(session.kinematics, aim, self.metrics) if self.metrics.following else None
         self._last_result = None
         # teleoperation: the hand's truth, the state at the last step, where the hold began
         self.metrics.teleop = session.targeter.mode is TargetMode.TELEOP and session.targeter.teleop is not None
@@ -337,15 +314,10 @@ class HeadlessRunner:
         # why the camera gave nothing, read before the session closes it (its status, else "")
         self.camera_status = ""
         self.camera_connected = False
-        # scored against the truth (core.sim.scoring): following a marker, the cups game's choice
-        aim = lambda p: session.targeter.pointing.apply(p)  # noqa: E731 (the targeter's rule at the time)
-        self.follow_score = (FollowScore(session.kinematics, aim, session.targeter.follow_id,
-                                         samples=Reservoir(MAX_SAMPLES, 12))
-                             if session.targeter.mode is TargetMode.FOLLOW and session.targeter.follow_id is not None
-                             else None)
-        self.cups_score = (CupsScore(aim, session.targeter.cup_ids)
-                           if session.targeter.mode is TargetMode.CUPS else None)
-        self._truth_seen = False
+        # scored against the truth (core.sim.scoring) from this run's events: the markers, following
+        # a marker, the cups game's choice — the same scores a recording of the run gets
+        self.truth = TruthScore.for_targeter(session.kinematics, session.targeter, markers=self.metrics.markers,
+                                             follow_samples=Reservoir(MAX_SAMPLES, 12))
 
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
@@ -391,7 +363,7 @@ class HeadlessRunner:
                 processing = time.perf_counter() - w0
                 pending_latency.append((frame.t, processing if clock.simulated else 0.0))
                 self._score_frame(frame, result)
-                self._score_truth(frame)
+                m.recent_error_3d_mm.extend(self.truth.note(FrameEvent.of(frame, result, self._goal)))
                 if objects is not None:
                     self._score_objects(frame, objects)
                 if m.following:
@@ -411,8 +383,7 @@ class HeadlessRunner:
             m.event_steps, m.tick_steps = schedule.event_steps, schedule.tick_steps
             m.bridge_disconnects = self.reconnector.disconnects
             m.disconnected_s = self.reconnector.disconnected_s()
-            if self._truth_seen:
-                m.truth_scores = [sc for sc in (self.follow_score, self.cups_score) if sc is not None]
+            m.truth_scores = self.truth.scores()
             self.camera_status = str(getattr(s.camera, "status_message", "") or "")
             self.camera_connected = bool(getattr(s.camera, "is_connected", False))
             s.close()
@@ -456,8 +427,7 @@ class HeadlessRunner:
         if self.recorder is not None:
             self.recorder.command(cmd, self._goal)
         m.commands_sent += 1
-        if self.follow_score is not None:
-            self.follow_score.note_command(now, cmd.q, q_now)
+        self.truth.note(CommandEvent(now, tuple(cmd.q), tuple(q_now)))
         if command_outside_limits(sent, cmd, s.bridge, s.profile):
             m.limit_violations += 1
         if not cmd.reachable:
@@ -480,18 +450,7 @@ class HeadlessRunner:
         if m.teleop:
             self._score_teleop(cmd, state, s.clock.now())
         if m.following and state is not None:
-            self._score_follow(state, s.clock.now())
-
-    def _score_truth(self, frame) -> None:
-        """Hand the frame's truth (and the cups game's decision) to the truth scorers."""
-        if frame.truth is None:
-            return
-        self._truth_seen = True
-        if self.follow_score is not None:
-            self.follow_score.note_frame(float(frame.t), frame.truth)
-        goal = self._goal
-        if self.cups_score is not None and goal is not None and goal.valid:
-            self.cups_score.note_decision(goal.base_p_target, frame.truth)
+            self.object_follow.note_step(s.clock.now(), state.q, s.targeter.object_follow_status())
 
     def _record_frame(self, frame, result) -> None:
         """Hand this frame's messages to the recorder (queue puts: nothing waits for the disk)."""
@@ -514,181 +473,18 @@ class HeadlessRunner:
             m.perception_ms.append(result.timings_ms["total"])
             m.recent_perception_ms.append(result.timings_ms["total"])
         m.full_searches += int(result.full_frame_search)
-        self._last_truth = frame.truth
-        if frame.truth is None:
-            return
-        for obj in frame.truth.objects:
-            if obj.marker_id < 0 or not (obj.visible_left and obj.visible_right):
-                continue
-            m.visible_pairs += 1
-            obs = result.marker(obj.marker_id)
-            if obs is not None and obs.found:
-                m.seen_pairs += 1
-                error_mm = float(np.linalg.norm(np.subtract(obs.base_p_centre, obj.base_p_centre))) * 1e3
-                m.error_3d_mm.append(error_mm)
-                m.recent_error_3d_mm.append(error_mm)
+        self._last_truth = frame.truth  # the markers are scored against it by self.truth
 
     def _score_objects(self, frame, observations) -> None:
-        """Score the marker-less objects of one frame against its ground truth (simulated desk).
-
-        Targets: the truth things (labels "<colour> <kind>") visible in both views that one of
-        the detectors can name (``detector_labels`` / ``label_matches``: a colour, a class = a
-        kind, the whole label, or the generic "circle" for a ball, a disc or a cup).
-
-        Each target takes one triangulated observation, each observation names at most one
-        target: among the observations that can name it and lie within OBJECT_SEEN_M, the most
-        specific label first (``label_specificity``: a colour or class over "circle", so with
-        hsv and circles together a ball is scored on its colour track, whichever is nearer),
-        then the nearest. A target with none is not seen; farther observations are not error
-        samples (they are other objects, or this one misplaced beyond recognition — the seen
-        ratio shows that). A seen target gives its kind's 3D error, its velocity error (against
-        the truth's, from consecutive truth positions) and its id: an id switch is a change of
-        the object_id of the observation with the *same label* that scored this target last (two
-        detectors' tracks of one object are two ids, not switches between them).
-        """
-        m, truth = self.metrics, frame.truth
-        if truth is None:
-            return
-        t = float(frame.t)
-        targets = []
-        for obj in truth.objects:
-            kind = thing_kind(obj.label)
-            if kind is None:
-                continue
-            p = np.asarray(obj.base_p_centre, dtype=float)
-            prev = self._object_truth_prev.get(obj.marker_id)
-            velocity = None
-            if prev is not None and t - prev[0] > 1e-6:
-                velocity = (p - prev[1]) / (t - prev[0])
-            if prev is None or t - prev[0] > 1e-6:
-                self._object_truth_prev[obj.marker_id] = (t, p)
-            if not (obj.visible_left and obj.visible_right):
-                continue
-            if self._object_labels is not None and not any(label_matches(label, obj.label)
-                                                           for label in self._object_labels):
-                continue
-            targets.append((obj, kind, p, velocity))
-        measured = [o for o in observations if o.triangulated and o.base_p is not None]
-        candidates = []
-        for ti, (obj, _, p, _) in enumerate(targets):
-            for oi, o in enumerate(measured):
-                specificity = label_specificity(o.label, obj.label)
-                if specificity == 0:
-                    continue
-                dist = float(np.linalg.norm(np.asarray(o.base_p) - p))
-                if dist <= OBJECT_SEEN_M:
-                    candidates.append((-specificity, dist, ti, oi))
-        candidates.sort()
-        matched: dict[int, tuple[float, int]] = {}
-        used = set()
-        for _, dist, ti, oi in candidates:
-            if ti in matched or oi in used:
-                continue
-            matched[ti] = (dist, oi)
-            used.add(oi)
-        for ti, (obj, kind, p, velocity) in enumerate(targets):
-            m.object_visible_pairs += 1
-            if ti not in matched:
-                continue
-            dist, oi = matched[ti]
-            m.object_seen_pairs += 1
-            m.object_error(kind).append(dist * 1e3)
-            if velocity is not None and float(np.linalg.norm(velocity)) >= FAST_OBJECT_M_S:
-                m.object_error_fast_mm.append(dist * 1e3)
-            o = measured[oi]
-            key = (obj.marker_id, o.label)
-            last_id = self._object_ids.get(key)
-            if last_id is not None and last_id != o.object_id:
-                m.object_id_switches += 1
-            self._object_ids[key] = o.object_id
-            if velocity is not None and o.velocity_base is not None:
-                m.object_velocity_error_mm_s.append(
-                    float(np.linalg.norm(np.asarray(o.velocity_base) - velocity)) * 1e3)
+        """Score the marker-less objects of one frame against its ground truth (simulated desk):
+        ``core.sim.object_scoring.note_objects`` with this run's detector labels and state."""
+        note_objects(self.metrics, frame.t, frame.truth, observations, self._object_labels, self._object_ids,
+                     self._object_truth_prev)
 
     def _note_followed(self, frame) -> None:
-        """Which truth object the followed observation is (by label, nearest), and every truth
-        object's motion (for the follow error at control-step times)."""
-        truth = frame.truth
-        if truth is None:
-            return
-        t = float(frame.t)
-        for obj in truth.objects:
-            p = np.asarray(obj.base_p_centre, dtype=float)
-            prev = self._truth_motion.get(obj.marker_id)
-            v = np.zeros(3) if prev is None else prev[2]
-            if prev is not None and t - prev[0] > 1e-6:
-                v = (p - prev[1]) / (t - prev[0])
-            self._truth_motion[obj.marker_id] = (t, p, v)
-        status = self.s.targeter.object_follow_status()
-        if status.object_id != self._follow_object_id or status.phase in ("lost", "watch", "approach"):
-            # another track, or following starts over: scored again once the tool is on it
-            self._follow_object_id = status.object_id
-            self._follow_on_aim = False
-        if not status.seen or status.base_p_object is None:
-            self._followed_truth_id = None
-            return
-        seen_p = np.asarray(status.base_p_object)
-        best, best_d = None, OBJECT_SEEN_M * 3
-        for obj in truth.objects:
-            if not label_matches(status.label, obj.label):
-                continue
-            d = float(np.linalg.norm(np.asarray(obj.base_p_centre) - seen_p))
-            if d < best_d:
-                best, best_d = obj.marker_id, d
-        self._followed_truth_id = best
-
-    def _score_follow(self, state, now: float) -> None:
-        """The followed object's metrics at one control step (see ``RunMetrics.follow_summary``).
-
-        Follow error: the tool vs the pointing position of the followed object's *true* place
-        (extrapolated from the latest frame to now with its true velocity), or the nearest point
-        the arm reaches when that is at most FOLLOW_REACH_TOL_M out of reach; only while the object
-        is seen, while the follower tracks it or stays on it (not while it watches or approaches),
-        and from the first time the tool came within FOLLOW_ON_AIM_M of that point after it was
-        (re)acquired (the arm's sprint to a newly seen object is not a following error).
-        Stops, approaches, the time from a stopped event to the tool within REACHED_M of the
-        approach's end, and the tool's speed at the end of the approach (over ARRIVAL_WINDOW_S).
-        """
-        s, m = self.s, self.metrics
-        tool = np.asarray(s.kinematics.fk(state.q), dtype=float)
-        self._tool_track.append((now, tool))
-        status = s.targeter.object_follow_status()
-        m.object_stops, m.object_approaches = status.stops, status.approaches
-        if status.approaches != self._approach_seen and status.approach_t0 is not None:
-            self._approach_seen = status.approaches
-            self._approach_info = (status.approaches, status.approach_t0, status.approach_t_end,
-                                   np.asarray(status.approach_goal))
-        info = self._approach_info
-        if info is not None:
-            number, t0, t_end, goal = info
-            done = self._approach_scored.setdefault(number, set())
-            active = status.approaches == number and status.phase in ("approach", "arrived")
-            if not active:
-                self._approach_info = None  # cancelled (the object moved) or replaced
-            else:
-                if "reach" not in done and float(np.linalg.norm(tool - goal)) <= REACHED_M:
-                    done.add("reach")
-                    m.time_to_reach_stopped_s.append(now - t0)
-                if "arrival" not in done and now >= t_end:
-                    past = [(t, p) for t, p in self._tool_track if t <= now - ARRIVAL_WINDOW_S + 1e-9]
-                    if past:
-                        t_past, p_past = past[-1]
-                        done.add("arrival")
-                        m.arrival_speed_mm_s.append(float(np.linalg.norm(tool - p_past)) / (now - t_past) * 1e3)
-        if (not status.seen or self._followed_truth_id is None
-                or status.phase not in ("track", "arrived")):
-            return
-        t_truth, p_truth, v_truth = self._truth_motion[self._followed_truth_id]
-        aim = np.asarray(s.targeter.pointing.apply(p_truth + v_truth * (now - t_truth)))
-        ik = s.kinematics.ik(tuple(aim), state.q)
-        if float(ik.error_m) > FOLLOW_REACH_TOL_M:
-            return
-        error = float(np.linalg.norm(tool - np.asarray(ik.base_p_reached)))
-        if not self._follow_on_aim:
-            self._follow_on_aim = error <= FOLLOW_ON_AIM_M
-            if not self._follow_on_aim:
-                return
-        m.object_follow_error_mm.append(error * 1e3)
+        """The followed object's truth and the follower's status, for the follow error at the steps."""
+        if frame.truth is not None:
+            self.object_follow.note_frame(frame.t, frame.truth, self.s.targeter.object_follow_status())
 
     def _teleop_scene(self):
         """(scenario, scenario time offset) of a simulated teleop desk, or (None, 0)."""
@@ -826,50 +622,6 @@ class HeadlessRunner:
             f"3d-error={e or 0:.2f}mm seen={seen:.0%} commands={m.commands_sent} "
             f"limit-violations={m.limit_violations}{note}"
         )
-
-
-def detector_labels(perception) -> Optional[tuple[str, ...]]:
-    """The labels an object perception's detectors can give: colour names (hsv), "circle"
-    (circles); markers (aruco) name no thing. None when one of them names its detections freely
-    (a learned model's classes: every truth object is a target then)."""
-    if perception is None:
-        return None
-    labels: list[str] = []
-    for detector in perception.detectors:
-        name = getattr(detector, "name", "")
-        colours = getattr(detector.params, "colours", None)
-        if colours is not None:
-            labels += [c.name for c in colours]
-        elif name == "circles":
-            labels.append(CIRCLE_LABEL)
-        elif name != "aruco":
-            return None
-    return tuple(labels)
-
-
-CIRCLE_LABEL = "circle"  # what core.detect.circles labels its detections
-ROUND_KINDS = ("ball", "disc", "cup")  # the truth kinds a "circle" detection can be
-
-
-def label_specificity(label: str, truth_label: str) -> int:
-    """How well a detection labelled ``label`` names the truth object ``truth_label`` ("red ball"):
-    2 for the whole label, its colour ("red") or its kind ("ball", a model's class); 1 for the
-    generic "circle" when the kind is round (ball, disc, cup); 0 when it does not name it."""
-    label, words = str(label).strip().lower(), str(truth_label).strip().lower().split()
-    if not label or not words:
-        return 0
-    if label in (" ".join(words), " ".join(words[:-1]), words[-1]):
-        return 2
-    if label == CIRCLE_LABEL and words[-1] in ROUND_KINDS:
-        return 1
-    return 0
-
-
-def label_matches(label: str, truth_label: str) -> bool:
-    """Does a detection labelled ``label`` name the truth object ``truth_label`` ("red ball")?
-    Yes for the whole label, its colour ("red"), its kind ("ball"), or "circle" for a round kind
-    (ball, disc, cup); see ``label_specificity``."""
-    return label_specificity(label, truth_label) > 0
 
 
 def run_headless(options: SessionOptions, duration_s: float, as_json: bool, out=None, record=None, err=None) -> int:
