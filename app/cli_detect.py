@@ -61,6 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="charuco, diamond: side of a marker, smaller than the square (default: 0.022)")
     p.add_argument("--legacy", action="store_true",
                    help="charuco: a board drawn by OpenCV before 4.6 (an even number of rows starts with a marker)")
+    p.add_argument("--anchors", default=None, metavar="W,H[,W,H…]",
+                   help="onnx:PATH with a YOLOv2 output (1, A*(5+C), H, W): its anchors, width,height pairs in grid "
+                        "cells as in darknet's [region] anchors (default: the model's metadata key 'anchors')")
     p.add_argument("--json", action="store_true", help="print one JSON object only")
     return p
 
@@ -85,13 +88,16 @@ def markers_dictionary(markers: str | None) -> tuple[str, str | None]:
 
 def build_detectors(detector_list: str, colours: list[str], dictionary: str | None,
                     board: str = "7x5", square_m: float = 0.03, marker_m: float = 0.022,
-                    legacy: bool = False, markers: str | None = None, notes: list | None = None) -> list:
+                    legacy: bool = False, markers: str | None = None, notes: list | None = None,
+                    anchors: str | None = None) -> list:
     """The detectors the options name; ValueError (SettingsError too) naming what is wrong.
     ``notes`` collects what the user should hear (a broken markers.toml)."""
     from core.detect.colour import parse_hsv_range
     from core.detect.registry import make_detector, parse_detector_list
 
     names = parse_detector_list(detector_list)
+    if anchors is not None and not any(n.startswith("onnx:") for n in names):
+        raise ValueError(f"--anchors {anchors} is for a YOLOv2 model: add --detector onnx:PATH")
     ranges = tuple(parse_hsv_range(text) for text in colours)
     if ranges and "hsv" not in names:
         names.append("hsv")
@@ -114,6 +120,8 @@ def build_detectors(detector_list: str, colours: list[str], dictionary: str | No
         if name == "charuco":
             options["squares_x"], options["squares_y"] = _board_size(board)
             options["legacy"] = legacy
+        if anchors is not None and name.startswith("onnx:"):
+            options["anchors"] = anchors
         detectors.append(make_detector(name, **options))
     return detectors
 
@@ -137,7 +145,7 @@ def run(command: str, argv: list[str]) -> int:
     notes: list[str] = []
     try:
         detectors = build_detectors(args.detector, args.colour, args.dictionary, args.board, args.square,
-                                    args.marker, args.legacy, args.markers, notes)
+                                    args.marker, args.legacy, args.markers, notes, args.anchors)
     except (ValueError, TypeError) as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return 2

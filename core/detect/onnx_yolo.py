@@ -6,6 +6,11 @@ The output layout is recognised by its shape:
 * YOLOv5         ``(1, N, 5+C)``  rows ``cx, cy, w, h, objectness, C class scores``
 * YOLOv8 / v11   ``(1, 4+C, N)``  columns ``cx, cy, w, h, C class scores`` (transposed, no objectness)
 * end-to-end     ``(1, N, 6)``    rows ``x1, y1, x2, y2, score, class`` (YOLO26, YOLOv10: NMS already done)
+* YOLOv2         ``(1, A·(5+C), H, W)`` darknet's region layer: per anchor a and grid cell
+  ``tx, ty, tw, th, to, C class logits``; box centre ``(cell + σ(t)) · stride``, size
+  ``anchor · exp(t) · stride``, score ``σ(to) · softmax(class)``. The A anchors (width, height pairs
+  in grid cells, as in darknet's ``[region] anchors``) come from ``anchors`` or the model's
+  metadata key ``anchors`` ("1.08,1.19, 3.42,4.41, …")
 
 Boxes are in the pixels of the letterboxed network input and are mapped back to the image.
 Class names come from ``classes`` (a list or a file with one name per line), else from the model's
@@ -28,13 +33,15 @@ import numpy as np
 from core.detect.base import BaseDetector, Detection
 from core.settings import SettingsError, check_range
 
-__all__ = ["OnnxYoloDetector", "OnnxYoloParams", "OnnxModelInfo", "read_onnx_info", "letterbox", "LAYOUTS", "DEFAULT_INPUT_SIZE"]
+__all__ = ["OnnxYoloDetector", "OnnxYoloParams", "OnnxModelInfo", "read_onnx_info", "letterbox", "LAYOUTS",
+           "DEFAULT_INPUT_SIZE", "parse_anchors"]
 
 DEFAULT_INPUT_SIZE = 640
-LAYOUTS = ("yolov5", "yolov8", "end2end")
+LAYOUTS = ("yolov5", "yolov8", "end2end", "yolov2")
 LAYOUT_HELP = ("supported layouts: YOLOv5 (1, N, 5+C) [cx, cy, w, h, objectness, class scores...]; "
                "YOLOv8/v11 (1, 4+C, N) [cx, cy, w, h, class scores...]; "
-               "end-to-end YOLO26/YOLOv10 (1, N, 6) [x1, y1, x2, y2, score, class]")
+               "end-to-end YOLO26/YOLOv10 (1, N, 6) [x1, y1, x2, y2, score, class]; "
+               "YOLOv2 (1, A*(5+C), H, W) with A anchors [tx, ty, tw, th, objectness, class logits...]")
 PAD_VALUE = (114, 114, 114)
 MAX_CANDIDATES = 30000  # boxes handed to NMS at most (ultralytics' max_nms)
 
@@ -195,10 +202,45 @@ def letterbox(image: np.ndarray, size_wh: tuple[int, int]) -> tuple[np.ndarray, 
     return image, scale, (float(left), float(top))
 
 
+def parse_anchors(value) -> Optional[tuple[float, ...]]:
+    """YOLOv2 anchors -> (w0, h0, w1, h1, …) in grid cells: "1.08,1.19, 3.42,4.41", "[[1.08, 1.19], …]"
+    or numbers; None for None or an empty text. ValueError for an odd count or a value ≤ 0."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        text = value.replace("[", " ").replace("]", " ").replace("(", " ").replace(")", " ").replace(",", " ")
+        if not text.split():
+            return None
+        try:
+            numbers = [float(v) for v in text.split()]
+        except ValueError:
+            raise ValueError(f"anchors {value!r}: expected numbers, e.g. 1.08,1.19,3.42,4.41") from None
+    else:
+        numbers = [float(v) for v in np.asarray(value, dtype=float).ravel()]
+    if not numbers or len(numbers) % 2:
+        raise ValueError(f"anchors {value!r}: need width,height pairs (an even count of numbers)")
+    if not all(np.isfinite(numbers)) or min(numbers) <= 0:
+        raise ValueError(f"anchors {value!r}: every width and height must be > 0 (grid cells)")
+    return tuple(numbers)
+
+
 def guess_layout(shape: Sequence[int], num_classes: Optional[int] = None,
-                 input_wh: Optional[tuple[int, int]] = None, end2end_hint: Optional[bool] = None) -> str:
-    """One of LAYOUTS from an output shape; ValueError naming the shape when it is not clear."""
+                 input_wh: Optional[tuple[int, int]] = None, end2end_hint: Optional[bool] = None,
+                 num_anchors: Optional[int] = None) -> str:
+    """One of LAYOUTS from an output shape; ValueError naming the shape when it is not clear.
+    A 4-D output (1, A·(5+C), H, W) is YOLOv2's and needs ``num_anchors`` (A)."""
     shape = tuple(int(s) for s in shape)
+    if len(shape) == 4 and shape[0] == 1:
+        if not num_anchors:
+            raise ValueError(f"YOLO output shape {shape} looks like YOLOv2's (1, A*(5+C), H, W) but the model "
+                             f"names no anchors: pass anchors= (--anchors W,H,W,H,…, in grid cells) or add the "
+                             f"metadata key 'anchors'); {LAYOUT_HELP}")
+        per = shape[1] / num_anchors
+        if per != int(per) or per < 6 or (num_classes is not None and per != 5 + num_classes):
+            known = f" and {num_classes} class names" if num_classes is not None else ""
+            raise ValueError(f"YOLOv2 output shape {shape} does not fit {num_anchors} anchors{known}: "
+                             f"its channels must be A*(5+C); {LAYOUT_HELP}")
+        return "yolov2"
     dims = shape[1:] if len(shape) == 3 and shape[0] == 1 else shape if len(shape) == 2 else None
     if dims is None:
         raise ValueError(f"unrecognised YOLO output shape {shape}: expected (1, rows, columns); {LAYOUT_HELP}")
@@ -244,9 +286,15 @@ class OnnxYoloParams:
     backend: str = "auto"  # "auto" (onnxruntime when installed, else OpenCV), "cv2", "onnxruntime"
     layout: Optional[str] = None  # force "yolov5", "yolov8" or "end2end"; None: from the output shape
     max_detections: int = 300  # most detections reported, 1 … 10000
+    # YOLOv2 only: anchor (width, height) pairs in grid cells, flat; None: the model's metadata "anchors"
+    anchors: Optional[Union[tuple[float, ...], str]] = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", str(self.path))
+        try:
+            object.__setattr__(self, "anchors", parse_anchors(self.anchors))
+        except (ValueError, TypeError) as exc:
+            raise SettingsError(f"onnx.anchors: {exc}") from None
         if self.classes is not None:
             if isinstance(self.classes, Path):
                 object.__setattr__(self, "classes", str(self.classes))
@@ -291,12 +339,12 @@ class OnnxYoloDetector(BaseDetector):
     def __init__(self, path: Union[PathLike, OnnxYoloParams], classes: Optional[Union[Sequence[str], PathLike]] = None,
                  input_size: Optional[Union[int, Sequence[int]]] = None, score_threshold: float = 0.25,
                  nms_iou: float = 0.45, backend: str = "auto", layout: Optional[str] = None,
-                 max_detections: int = 300, *, engine: Optional[int] = None, _loaded=None):
+                 max_detections: int = 300, anchors=None, *, engine: Optional[int] = None, _loaded=None):
         if isinstance(path, OnnxYoloParams):
             params = path
         else:
             params = OnnxYoloParams(str(path), classes, input_size, score_threshold, nms_iou, backend, layout,
-                                    max_detections)
+                                    max_detections, anchors)
         super().__init__(params)
         self.path = Path(params.path)
         self.name = f"onnx:{params.path}"
@@ -312,6 +360,10 @@ class OnnxYoloDetector(BaseDetector):
             raise ValueError(f"{self.path}: cannot read it as an ONNX model ({exc})") from exc
         self.input_wh = self._input_size(params.input_size)
         self.names = self._names(params.classes)
+        try:
+            self.anchors = params.anchors or parse_anchors(self.info.metadata.get("anchors"))
+        except ValueError as exc:
+            raise ValueError(f"{self.path}: its metadata key 'anchors': {exc}") from None
 
         self.backend = self._pick_backend(params.backend)
         self._session = self._net = None
@@ -332,7 +384,15 @@ class OnnxYoloDetector(BaseDetector):
         raw = self._forward(np.full((1, 3, h, w), 114 / 255, np.float32))
         end2end = self.info.metadata.get("end2end")
         hint = None if end2end is None else end2end.strip().lower() in ("true", "1", "yes")
-        self.layout = params.layout or guess_layout(raw.shape, self._declared_classes, self.input_wh, hint)
+        self.layout = params.layout or guess_layout(raw.shape, self._declared_classes, self.input_wh, hint,
+                                                    len(self.anchors) // 2 if self.anchors else None)
+        if self.layout == "yolov2":
+            if not self.anchors:
+                raise ValueError(f"{self.path}: a YOLOv2 output needs anchors (--anchors or the metadata key "
+                                 f"'anchors')")
+            if raw.ndim != 4 or raw.shape[1] % (len(self.anchors) // 2):
+                raise ValueError(f"{self.path}: output {tuple(raw.shape)} is not YOLOv2's (1, A*(5+C), H, W) for "
+                                 f"{len(self.anchors) // 2} anchors; {LAYOUT_HELP}")
         self.output_shape = tuple(raw.shape)
         self.num_classes = self._count_classes(raw.shape)
 
@@ -403,6 +463,8 @@ class OnnxYoloDetector(BaseDetector):
             return dims[1] - 5
         if self.layout == "yolov8":
             return dims[0] - 4
+        if self.layout == "yolov2":
+            return int(shape[1]) // (len(self.anchors) // 2) - 5
         return self._declared_classes
 
     @staticmethod
@@ -435,6 +497,8 @@ class OnnxYoloDetector(BaseDetector):
 
     def decode(self, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Raw output -> (boxes x1 y1 x2 y2 in input pixels, scores, class ids), above the threshold."""
+        if self.layout == "yolov2":
+            return self._decode_yolov2(raw)
         rows = raw.reshape(raw.shape[-2:])
         if self.layout == "yolov8":
             rows = rows.T
@@ -451,6 +515,31 @@ class OnnxYoloDetector(BaseDetector):
             boxes = np.stack([cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2], axis=1)
         keep = np.isfinite(scores) & (scores >= self.score_threshold)
         return boxes[keep], np.clip(scores[keep], 0.0, 1.0), ids[keep]
+
+    def _decode_yolov2(self, raw: np.ndarray):
+        """Darknet's region layer: (1, A·(5+C), H, W) -> boxes in input pixels, scores, class ids."""
+        n_anchors = len(self.anchors) // 2
+        _, channels, gh, gw = raw.shape
+        t = raw.reshape(n_anchors, channels // n_anchors, gh, gw).astype(np.float64)
+        anchors = np.asarray(self.anchors, dtype=np.float64).reshape(n_anchors, 2)
+        sigmoid = (lambda v: 1.0 / (1.0 + np.exp(-np.clip(v, -60.0, 60.0))))
+        stride_x, stride_y = self.input_wh[0] / gw, self.input_wh[1] / gh
+        col = np.arange(gw)[None, None, :]
+        row = np.arange(gh)[None, :, None]
+        cx = (col + sigmoid(t[:, 0])) * stride_x
+        cy = (row + sigmoid(t[:, 1])) * stride_y
+        bw = anchors[:, 0, None, None] * np.exp(np.clip(t[:, 2], -20.0, 20.0)) * stride_x
+        bh = anchors[:, 1, None, None] * np.exp(np.clip(t[:, 3], -20.0, 20.0)) * stride_y
+        logits = t[:, 5:]
+        prob = np.exp(logits - logits.max(axis=1, keepdims=True))
+        prob /= prob.sum(axis=1, keepdims=True)
+        class_scores = (sigmoid(t[:, 4])[:, None] * prob).transpose(0, 2, 3, 1).reshape(-1, channels // n_anchors - 5)
+        ids = np.argmax(class_scores, axis=1)
+        scores = class_scores[np.arange(len(ids)), ids]
+        cx, cy, bw, bh = (v.reshape(-1) for v in (cx, cy, bw, bh))
+        boxes = np.stack([cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2], axis=1)
+        keep = np.isfinite(scores) & (scores >= self.score_threshold)
+        return (boxes[keep].astype(np.float32), np.clip(scores[keep], 0.0, 1.0).astype(np.float32), ids[keep])
 
     def _nms(self, boxes, scores, ids) -> np.ndarray:
         order = np.argsort(-scores, kind="stable")
