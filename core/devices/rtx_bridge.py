@@ -18,8 +18,9 @@ must have answered with different numbers. A chip that had restarted means the e
 are gone: the bridge then needs the initialisation again (it says so; it never re-initialises
 without being asked — ``?init=auto`` in the URL is that consent, for unattended runs).
 
-A wrong or garbled reply, or none, makes the bridge resynchronise (drop input, TOGGLE_OFF,
-IDENTIFY — which also tells which chip has the line) and retry the command once; when the
+A wrong or garbled reply, or none, makes the bridge resynchronise (drop input until the line is
+quiet, TOGGLE_OFF, IDENTIFY — which also tells which chip has the line) and retry the command (3
+tries in all; the driver tried once, but a loaded host can miss a reply too); when the
 controller stays silent the link is lost (BridgeError: the bridge worker and the headless runner
 reconnect with backoff, and the reconnect does the handshake again).
 
@@ -65,6 +66,7 @@ from core.motion.safety import clamp_to_limits
 SPACING_MARGIN_S = 0.0005  # waited beyond the 8 ms, so clock granularity never makes it shorter
 RESPONSE_TIMEOUT_S = p.READ_TIMEOUT_S  # per byte, tried twice (the driver's VTIME = 1, one retry)
 SIM_RESPONSE_TIMEOUT_S = 0.5  # rtx:sim: the emulator shares this process (and its GIL) with the app
+ATTEMPTS = 3  # a command (and a resynchronisation) is tried this often before the link counts as lost
 MAX_COMMAND_HZ = 20.0  # targets are taken this often at most; the line does ~4 full cycles a second
 IDLE_POLL_S = 0.3  # before initialisation: general status this often (a silent controller shows)
 INIT_LEG_TIMEOUT_S = 240.0  # a joint that does not reach its end stop in this long fails the init
@@ -404,16 +406,16 @@ class RtxBridge(MotorBridge):
         self._current_ip = ip
 
     def _raw(self, ip: int, cmd: bytes) -> p.Reply:
-        """One command to chip ``ip``; resynchronise and retry once on line trouble; link errors
-        become BridgeError. Error replies are returned, not raised."""
+        """One command to chip ``ip``; on line trouble resynchronise and retry (``ATTEMPTS`` in all);
+        link errors become BridgeError. Error replies are returned, not raised."""
         with self._line:
             try:
-                for attempt in (0, 1):
+                for attempt in range(ATTEMPTS):
                     try:
                         self._select(ip)
                         return self._write_cmd(cmd)
                     except _LineTrouble as trouble:
-                        if attempt == 1 or not self._resync():
+                        if attempt == ATTEMPTS - 1 or not self._resync():
                             raise BridgeError(f"{self.url}: the RTX controller does not answer ({trouble}) — is it "
                                               "switched on and the cable in? deskarm reconnects by itself") from None
             except serial_error_types() as exc:
@@ -425,7 +427,7 @@ class RtxBridge(MotorBridge):
         state again and we know which chip has it (True)."""
         self.resyncs += 1
         try:
-            for _ in range(2):
+            for _ in range(ATTEMPTS):
                 self._drain()
                 try:
                     chip, restarted = self._identify_line()
@@ -596,8 +598,15 @@ class RtxBridge(MotorBridge):
         ip, ctl = p.MOTOR_IP[motor], p.MOTOR_CTL[motor]
         what = f"{MOTOR_NAME[motor]} {code.name} = {value}"
         with self._line:
-            self._cmd(ip, p.select_write(code), expect=p.RESP_TYPE_DEF_W1, what=what)
-            reply = self._cmd(ip, p.write_param(ctl, value), what=what)
+            for attempt in range(2):
+                self._cmd(ip, p.select_write(code), expect=p.RESP_TYPE_DEF_W1, what=what)
+                try:
+                    reply = self._cmd(ip, p.write_param(ctl, value), what=what)
+                    break
+                except RtxReplyError as exc:
+                    # a resynchronisation between the two halves used up the selection: both again
+                    if exc.code != p.ReplyCode.CMD_OOR or attempt == 1:
+                        raise
         lo, hi = int(value) & 0xFF, (int(value) >> 8) & 0xFF
         if reply.first != (p.RESP_TYPE_DEF_W2 | p.checksum(lo, hi)):
             raise RtxReplyError(f"{self.url}: {what}: reply {reply.data.hex()} has the wrong checksum", reply.first)
@@ -606,8 +615,14 @@ class RtxBridge(MotorBridge):
         ip, ctl = p.MOTOR_IP[motor], p.MOTOR_CTL[motor]
         what = f"read {MOTOR_NAME[motor]} {code.name}"
         with self._line:
-            self._cmd(ip, p.select_read(code), expect=p.RESP_TYPE_DEF_R1, what=what)
-            reply = self._cmd(ip, p.read_param(ctl), what=what)
+            for attempt in range(2):
+                self._cmd(ip, p.select_read(code), expect=p.RESP_TYPE_DEF_R1, what=what)
+                try:
+                    reply = self._cmd(ip, p.read_param(ctl), what=what)
+                    break
+                except RtxReplyError as exc:
+                    if exc.code != p.ReplyCode.CMD_OOR or attempt == 1:
+                        raise
         return self._word(reply, what)
 
     def _word(self, reply: p.Reply, what: str) -> int:
