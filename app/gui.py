@@ -633,6 +633,7 @@ for _name, _feature, _attr in (
         ("hand_eye_button", "robot", "hand_eye_button"), ("view_3d_button", "robot", "view_3d_button"),
         ("on_bridge_requested", "robot", "on_bridge_requested"), ("help_dialog", "help", "help_dialog")):
     setattr(MainWindow, _name, _Feature(_feature, _attr))
+del _name, _feature, _attr
 
 
 def run_window(options: SessionOptions, size: tuple[int, int],

@@ -98,6 +98,7 @@ class StatusFeature(QtCore.QObject):
         self.camera_error = message or None
         self.restore()
 
+    @QtCore.Slot(object)
     def set_health(self, status) -> None:
         """Calibration health (HealthStatus): the drift message goes to the banner."""
         self.health_message = (f"{status.message} (or Camera tab → Calibrate cameras…)"

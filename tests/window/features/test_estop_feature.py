@@ -6,8 +6,8 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from app.features.estop import MODAL_PAUSE, EStopFeature
-from conftest import TIMEOUT_MS
 from widgets.recordings_dialog import RecordingsDialog
+from feature_rig import TIMEOUT_MS
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

@@ -6,7 +6,7 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from app.features.help import HelpFeature
-from conftest import TIMEOUT_MS
+from feature_rig import TIMEOUT_MS
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

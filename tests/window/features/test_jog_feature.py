@@ -8,7 +8,7 @@ from PySide6 import QtCore
 
 from app.features.jog import JogFeature
 from core.messages import TargetMode
-from conftest import TIMEOUT_MS, show_page
+from feature_rig import TIMEOUT_MS, show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

@@ -10,8 +10,8 @@ from PySide6 import QtCore
 from app.features.markers import MarkersFeature
 from core.messages import MarkerObservation, TargetMode
 from core.vision.markers import MarkersConfig, MarkerSpec
-from conftest import TIMEOUT_MS, show_page
 from widgets.target_panel import TargetPanel
+from feature_rig import TIMEOUT_MS, show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 CONFIG = MarkersConfig(dictionary="DICT_APRILTAG_36h11",

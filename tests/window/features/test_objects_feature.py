@@ -9,8 +9,8 @@ from PySide6 import QtCore
 
 from app.features.objects import NO_DETECTOR_HINT, ObjectsFeature
 from core.messages import TargetMode
-from conftest import TIMEOUT_MS, show_page
 from widgets.target_panel import TargetPanel
+from feature_rig import TIMEOUT_MS, show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

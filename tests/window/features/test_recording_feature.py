@@ -6,7 +6,7 @@ import pytest
 from PySide6 import QtCore
 
 from app.features.recording import RecordingFeature
-from conftest import show_page
+from feature_rig import show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

@@ -8,7 +8,7 @@ import pytest
 from PySide6 import QtCore
 
 from app.features.robot import RobotFeature
-from conftest import TIMEOUT_MS, show_page
+from feature_rig import TIMEOUT_MS, show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

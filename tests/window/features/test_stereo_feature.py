@@ -6,9 +6,9 @@ import pytest
 from PySide6 import QtCore
 
 from app.features.stereo import StereoFeature
-from conftest import show_page
 from core.vision.disparity import list_presets
 from widgets.camera_view import CameraView
+from feature_rig import show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

@@ -8,8 +8,8 @@ import pytest
 from PySide6 import QtCore
 
 from app.features.target import TargetFeature
-from conftest import show_page
 from core.messages import TargetMode
+from feature_rig import show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 

@@ -10,8 +10,8 @@ from PySide6 import QtCore
 from app.features.teleop import TeleopFeature
 from core.messages import TargetMode
 from core.motion.jog import JogTeleopSource
-from conftest import show_page
 from widgets.target_panel import TargetPanel
+from feature_rig import show_page
 
 LEFT = QtCore.Qt.MouseButton.LeftButton
 
