@@ -1,7 +1,7 @@
 """The teleop feature on its own (app/features/teleop.py): choosing a hand source on the Teleop
 page gives the targeter a controller (the keyboard's JogTeleopSource here) and TELEOP mode;
 Restart puts the keyboard back where it started; an impossible target box is refused with the
-reason. A real session, the Target tab's Teleop page shown, no MainWindow."""
+reason and a preset is taken. A real session, the Target tab's Teleop page shown, no MainWindow."""
 from types import SimpleNamespace
 
 import pytest
@@ -76,8 +76,19 @@ def test_a_source_that_cannot_be_made_is_said_and_the_old_one_stays(qtbot, teleo
     assert combo.currentData() == "keyboard"  # the list shows the source in use again
 
 
-def test_a_target_box_inside_out_is_refused_with_the_axis(qtbot, teleop):
-    before = teleop.teleop_panel.accepted_box
-    teleop.on_target_box((0.05, 0.1, 0.05), (0.01, 0.15, 0.09))
-    assert teleop.teleop_panel.accepted_box == before
-    assert "min must be below max along x" in teleop.teleop_panel.box_message.text()
+def test_a_target_box_inside_out_is_refused_with_the_axis_and_a_preset_is_taken(qtbot, teleop):
+    panel = teleop.teleop_panel
+    before = panel.accepted_box
+    x_min = panel.box_spins["x"][0]
+    x_min.setFocus()
+    x_min.selectAll()
+    qtbot.keyClicks(x_min, "9")  # 9 cm: beyond the box's x max
+    qtbot.keyClick(x_min, QtCore.Qt.Key.Key_Return)
+    qtbot.waitUntil(lambda: "min must be below max along x" in panel.box_message.text(), timeout=5000)
+    assert panel.accepted_box == before
+    combo = panel.preset_combo
+    combo.setFocus()
+    qtbot.keyClick(combo, QtCore.Qt.Key.Key_Down)  # "Every arm reaches": the box in use
+    assert panel.accepted_box == before
+    qtbot.keyClick(combo, QtCore.Qt.Key.Key_Down)  # "Half size"
+    assert panel.accepted_box != before and panel.accepted_box.extent[0] == pytest.approx(before.extent[0] / 2)
