@@ -14,6 +14,12 @@ Two paths (``CircleParams.ellipses``):
 - Hough circles (``ellipses=False``): ``cv2.HoughCircles`` on a median-blurred grey image, as
   the delta controller used them when its camera looked straight down.
 
+Edges follow the image's contrast (``adaptive_edges``, the default): the edge thresholds of both
+EdgeDrawing and the edge support drop below their fixed values when the image is quiet (its median
+gradient is low), so grey photos and low-saturation round things — coins, washers, bottle caps,
+lift buttons, a step of ~10 grey levels from the desk — are found; on a textured or noisy image
+they stay where they were.
+
 Both report kind "circle", label "circle" (the shape says nothing about the colour: name a
 colour with the ``hsv`` detector), ``radius_px`` the semi-major axis and ``score`` the edge
 support (see ``CircleDetector``).
@@ -38,6 +44,14 @@ _OUTLINE_POINTS = 36  # points of an ellipse's outline (Detection.contour)
 # EdgeDrawing: the shortest edge segment traced (px of the image it runs on). Shorter arcs are
 # mostly wood grain; a 5 px circle is still 31 px round.
 _ED_MIN_PATH_PX = 30
+# adaptive_edges: thresholds as multiples of the image's median gradient (|Sobel x| + |Sobel y| of
+# the median-blurred grey image: on a quiet image that is the noise's gradient), never above the
+# fixed ones. A step of d grey levels gives a Sobel response of ~4 d.
+_CANNY_NOISE_FACTOR = 5.0  # the support's Canny high threshold: this x the median gradient …
+_CANNY_MIN = 15.0  # … but at least this
+_ED_GRADIENT_DEFAULT = 20  # EdgeDrawing's own GradientThresholdValue
+_ED_NOISE_FACTOR = 2.5  # adaptive: this x the median gradient …
+_ED_GRADIENT_MIN = 8  # … but at least this
 
 
 def has_ellipse_detector() -> bool:
@@ -62,10 +76,15 @@ class CircleParams:
     blur_px: int = 5  # median blur aperture before the edges, px, odd 1 (off) … 15
     max_objects: int = 10  # most circles reported (largest first), 1 … 1000
     min_score: float = 0.75  # least edge support kept (see CircleDetector), 0 (keep all) … 1
+    # edge thresholds follow the image's noise (grey, low-contrast round things); False: param1 and
+    # EdgeDrawing's fixed threshold alone, as before
+    adaptive_edges: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.ellipses, (bool, np.bool_)):
             raise SettingsError(f"circles.ellipses = {self.ellipses!r} must be true or false")
+        if not isinstance(self.adaptive_edges, (bool, np.bool_)):
+            raise SettingsError(f"circles.adaptive_edges = {self.adaptive_edges!r} must be true or false")
         if self.ellipses and not has_ellipse_detector():
             raise SettingsError("circles.ellipses needs OpenCV's contrib module ximgproc, which this OpenCV "
                                 "lacks: install opencv-contrib-python-headless, or set ellipses=False")
@@ -116,7 +135,8 @@ class CircleDetector(BaseDetector):
     """Circles, or ellipses (round things seen obliquely), largest radius first.
 
     ``score`` is the edge support: the fraction of 72 points on the circle or ellipse that lie
-    within 1 px of a Canny edge (thresholds param1 / 2 … param1, on the median-blurred image:
+    within 1 px of a Canny edge (thresholds param1 / 2 … param1, lower on a quiet image with
+    ``adaptive_edges``; on the median-blurred image:
     its colour for ellipses, grey for Hough):
     ~1 for a crisp whole outline, lower for arcs and ghosts; below ``min_score`` a shape is
     dropped (HOUGH_GRADIENT without a maximum radius otherwise reports image-sized circles
@@ -133,8 +153,9 @@ class CircleDetector(BaseDetector):
     def _detect(self, image: np.ndarray) -> list[Detection]:
         p = self._params
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
+        canny_high, ed_threshold = self._edge_thresholds(grey)
         if p.ellipses:
-            shapes = self._ellipses(grey)
+            shapes = self._ellipses(grey, ed_threshold)
             # edges of the colour image (Canny takes the strongest channel): a purple top on brown
             # wood is nearly the same grey
             support_image = image
@@ -144,7 +165,7 @@ class CircleDetector(BaseDetector):
             support_image = grey
         scored = []
         for e in shapes:
-            support = self._support(support_image, e)
+            support = self._support(support_image, e, canny_high)
             if support >= p.min_score:
                 scored.append((support, e))
         if p.ellipses:
@@ -171,7 +192,22 @@ class CircleDetector(BaseDetector):
         circles = np.asarray(circles, dtype=np.float64).reshape(-1, circles.shape[-1])[:, :3]
         return [(float(cx), float(cy), float(r), float(r), 0.0) for cx, cy, r in circles]
 
-    def _ellipses(self, grey: np.ndarray) -> list[tuple]:
+    def _edge_thresholds(self, grey: np.ndarray) -> tuple[float, int]:
+        """(the support's Canny high threshold, EdgeDrawing's gradient threshold) for this image:
+        the fixed ones, or with ``adaptive_edges`` lower ones on a quiet image (see the module)."""
+        p = self._params
+        if not p.adaptive_edges:
+            return p.param1, _ED_GRADIENT_DEFAULT
+        blurred = cv2.medianBlur(grey, p.blur_px) if p.blur_px > 1 else grey
+        step = max(1, min(grey.shape) // 120)  # the median of a grid of pixels is enough
+        gx = cv2.Sobel(blurred, cv2.CV_16S, 1, 0)[::step, ::step]
+        gy = cv2.Sobel(blurred, cv2.CV_16S, 0, 1)[::step, ::step]
+        median = float(np.median(np.abs(gx.astype(np.int32)) + np.abs(gy.astype(np.int32))))
+        canny_high = min(p.param1, max(_CANNY_MIN, _CANNY_NOISE_FACTOR * median))
+        ed = int(round(min(_ED_GRADIENT_DEFAULT, max(_ED_GRADIENT_MIN, _ED_NOISE_FACTOR * median))))
+        return canny_high, ed
+
+    def _ellipses(self, grey: np.ndarray, gradient_threshold: int = _ED_GRADIENT_DEFAULT) -> list[tuple]:
         """EdgeDrawing's ellipses (cx, cy, a ≥ b, b, angle of a in rad), round and sized enough."""
         p = self._params
         H, W = grey.shape
@@ -181,6 +217,7 @@ class CircleDetector(BaseDetector):
         ed = cv2.ximgproc.createEdgeDrawing()
         ed_params = cv2.ximgproc.EdgeDrawing.Params()
         ed_params.MinPathLength = _ED_MIN_PATH_PX
+        ed_params.GradientThresholdValue = int(gradient_threshold)
         ed.setParams(ed_params)
         ed.detectEdges(small)
         found = ed.detectEllipses()
@@ -202,7 +239,7 @@ class CircleDetector(BaseDetector):
             out.append((x, y, a, b, ang))
         return out
 
-    def _support(self, image: np.ndarray, e: tuple) -> float:
+    def _support(self, image: np.ndarray, e: tuple, canny_high: Optional[float] = None) -> float:
         """Fraction of the shape's perimeter samples within 1 px of an edge (outside the image: not).
 
         The edges are found only in the shape's box (grown by a margin for the blur and the
@@ -221,7 +258,8 @@ class CircleDetector(BaseDetector):
         crop = image[y0:y1, x0:x1]
         if p.blur_px > 1:
             crop = cv2.medianBlur(crop, p.blur_px)
-        edges = cv2.dilate(cv2.Canny(crop, p.param1 / 2, p.param1), _DILATE)
+        high = p.param1 if canny_high is None else canny_high
+        edges = cv2.dilate(cv2.Canny(crop, high / 2, high), _DILATE)
         return min(1.0, float(np.count_nonzero(edges[pts[:, 1] - y0, pts[:, 0] - x0])) / _SUPPORT_SAMPLES)
 
     @staticmethod
