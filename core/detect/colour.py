@@ -145,28 +145,57 @@ class HsvDetector(BaseDetector):
         p = self._params
         self._open = _kernel(p.open_px)
         self._close = _kernel(p.close_px)
+        # a region's margin around its colour's pixels: the opening and the closing together reach
+        # 2·(open radius + close radius) px (their erosions, at the region's edge, must see only
+        # pixels that are 0 in the whole image too), and the outlines need a row of 0 around them
+        self._margin = p.open_px + p.close_px + 2
 
     def masks(self, image_bgr: np.ndarray) -> dict[str, np.ndarray]:
         """Each colour's cleaned mask (after opening and closing) of a whole image, by name."""
+        out = {}
+        shape = check_image(image_bgr).shape[:2]
+        for name, (cleaned, x0, y0) in self._regions(image_bgr).items():
+            mask = np.zeros(shape, np.uint8)
+            mask[y0:y0 + cleaned.shape[0], x0:x0 + cleaned.shape[1]] = cleaned
+            out[name] = mask
+        return out
+
+    def _regions(self, image_bgr: np.ndarray) -> dict[str, tuple[np.ndarray, int, int]]:
+        """Each colour's cleaned mask around its pixels only: (mask of a region, region x0, y0).
+
+        The opening and closing run on the bounding box of the colour's pixels grown by
+        ``_margin`` (empty when none), not on the whole image: most colours are absent or small
+        in a view, and the morphology on whole masks was most of this detector's time. Outside
+        that box the whole-image result is 0 too, so the outlines are the same (see _margin)."""
         image = check_image(image_bgr)
         if image.ndim == 2:
             image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
         hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+        h_img, w_img = hsv.shape[:2]
         out = {}
         for colour in self._params.colours:
             mask = colour.mask(hsv)
+            x, y, w, h = cv2.boundingRect(mask)  # of the non-zero pixels; 0 wide when there are none
+            if w == 0 or h == 0:
+                out[colour.name] = (mask[:0, :0], 0, 0)
+                continue
+            m = self._margin
+            x0, y0, x1, y1 = max(x - m, 0), max(y - m, 0), min(x + w + m, w_img), min(y + h + m, h_img)
+            region = mask[y0:y1, x0:x1]
             if self._open is not None:
-                mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._open)
+                region = cv2.morphologyEx(region, cv2.MORPH_OPEN, self._open)
             if self._close is not None:
-                mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._close)
-            out[colour.name] = mask
+                region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, self._close)
+            out[colour.name] = (region, x0, y0)
         return out
 
     def _detect(self, image: np.ndarray) -> list[Detection]:
         p = self._params
         found: list[tuple[float, Detection]] = []
-        for name, mask in self.masks(image).items():
-            contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        for name, (region, x0, y0) in self._regions(image).items():
+            if region.size == 0:
+                continue
+            contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE, offset=(x0, y0))
             blobs = []
             for contour in contours:
                 m = cv2.moments(contour)

@@ -156,6 +156,9 @@ def _size(d: Detection) -> float:
     return max(0.5, 0.5 * math.sqrt(max(w, 0.0) * max(h, 0.0)))
 
 
+_K3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))  # blob_centre's erosions and dilations
+
+
 def blob_centre(image: Optional[np.ndarray], d: Detection, grow_px: int = 2) -> tuple[float, float]:
     """The centre to triangulate: for a blob (a detection with an outline) a sub-pixel centroid,
     else ``centre_px``.
@@ -187,13 +190,15 @@ def blob_centre(image: Optional[np.ndarray], d: Detection, grow_px: int = 2) -> 
     H, W = image.shape[:2]
     if lo[0] < 0 or lo[1] < 0 or hi[0] > W or hi[1] > H:
         return area_centre  # at the image border: the ring is cut off
-    patch = image[lo[1]:hi[1], lo[0]:hi[0]].astype(np.float32)
-    k3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
-    inner = cv2.erode(mask, k3, iterations=2)
-    near = cv2.dilate(mask, k3, iterations=grow_px)
-    ring = cv2.dilate(mask, k3, iterations=grow_px + 3) & ~cv2.dilate(mask, k3, iterations=grow_px + 1)
+    inner = cv2.erode(mask, _K3, iterations=2)
+    # the dilations grow one from the other (dilating n then m times is dilating n + m times):
+    # 5 passes instead of 2 + 6 + 4
+    near = cv2.dilate(mask, _K3, iterations=grow_px) if grow_px > 0 else mask
+    outside = cv2.dilate(near, _K3, iterations=1)
+    ring = cv2.dilate(outside, _K3, iterations=2) & ~outside
     if cv2.countNonZero(inner) < 8 or cv2.countNonZero(ring) < 8:
         return area_centre
+    patch = image[lo[1]:hi[1], lo[0]:hi[0]].astype(np.float32)
     fg = patch[inner > 0].mean(axis=0)
     bg = patch[ring > 0].mean(axis=0)
     span = fg - bg
@@ -206,8 +211,10 @@ def blob_centre(image: Optional[np.ndarray], d: Detection, grow_px: int = 2) -> 
     total = float(w.sum())
     if total <= 0:
         return area_centre
-    ys, xs = np.mgrid[0:w.shape[0], 0:w.shape[1]]
-    return (float(lo[0] + (w * xs).sum() / total), float(lo[1] + (w * ys).sum() / total))
+    # the weighted centroid from the row and column sums (not from two whole coordinate grids)
+    cx = float(w.sum(axis=0, dtype=np.float64) @ np.arange(w.shape[1], dtype=np.float64))
+    cy = float(w.sum(axis=1, dtype=np.float64) @ np.arange(w.shape[0], dtype=np.float64))
+    return (float(lo[0] + cx / total), float(lo[1] + cy / total))
 
 
 def _point(p) -> tuple[float, float, float]:
