@@ -173,6 +173,7 @@ SUBCOMMANDS = {
     "train-detector": "app.cli_train",
     "eval-detector": "app.cli_train",
     "assist-trials": "app.cli_assist",
+    "rtx-init": "app.rtx_init",
 }
 
 

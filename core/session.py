@@ -16,7 +16,7 @@ from core.clock import SimClock, WallClock
 from core.detect.registry import make_detector, parse_detector_list
 from core.detect.stereo import StereoObjectPerception
 from core.devices import open_bridge
-from core.devices.bridge import MotorBridge, parse_bridge_url
+from core.devices.bridge import MotorBridge, is_simulated_bridge, parse_bridge_url
 from core.handeye import HandEyeResult, ToolMarker, tool_marker_of
 from core.kinematics import build_kinematics, load_profile
 from core.messages import TargetMode
@@ -169,7 +169,7 @@ class DeskSession:
         profile = load_profile(options.robot)
         kinematics = build_kinematics(profile)
         # the simulated desk stands in for missing cameras only when the arm is simulated too
-        simulated_arm = parse_bridge_url(options.bridge) == "sim"
+        simulated_arm = is_simulated_bridge(options.bridge)  # sim:// or the emulated RTX (rtx:sim)
         remote_bridge = None
         if options.remote:  # another machine's cameras and arm; never the simulated desk instead
             from core.remote.desk import open_remote_desk
@@ -286,7 +286,7 @@ class DeskSession:
         follows the simulated desk that stands in for missing cameras — only a user who asked
         for ``--camera sim`` gets a real arm on the simulated scene."""
         try:
-            simulated_arm = parse_bridge_url(bridge_url) == "sim"
+            simulated_arm = is_simulated_bridge(bridge_url)
         except ValueError:
             return ""  # not a bridge URL at all: open_bridge says so
         if getattr(self.camera, "kind", "") == "remote":

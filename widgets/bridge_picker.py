@@ -19,6 +19,7 @@ from widgets._style import (
 PROTOCOLS = (
     ("v2", "deskarm firmware (v2, checked) — recommended"),
     ("v1", "original firmware (v1: no checksum)"),
+    ("rtx", "UMI-RTX controller (RS-232, --robot umi_rtx)"),
 )
 RECENT_MARK = " (recent)"
 
@@ -30,6 +31,8 @@ def bridge_url(protocol: str, port: str) -> str:
         return "sim://"
     if protocol == "phidget" or port.startswith("phidget://"):  # a Phidget servo board: its own URL
         return port if port.startswith("phidget://") else f"phidget://{port}"
+    if protocol == "rtx":
+        return port if port.startswith("rtx:") else f"rtx:{port}"
     if protocol == "v1":
         return port if port.startswith(("loop://", "v1:")) else f"v1:{port}"
     return port if port.startswith("v2:") else f"v2:{port}"

@@ -397,6 +397,13 @@ def parse_rtx_url(url: str) -> RtxUrl:
     return RtxUrl(port=None if sim else port, auto_init=init == "auto", speedup=speedup)
 
 
+def is_simulated_bridge(url: str) -> bool:
+    """True for an arm that is not on the desk: ``sim://`` and the emulated RTX ``rtx:sim[?…]``
+    (the simulated desk may stand in for missing cameras; a real arm never follows it)."""
+    protocol, port = split_bridge_url(url)
+    return protocol == "sim" or (protocol == "rtx" and port.split("?", 1)[0] == "sim")
+
+
 def parse_bridge_url(url: str) -> str:
     """'sim', 'serial' (protocol v1), 'serial-v2', 'phidget' or 'rtx'; ValueError naming the value and
     the valid forms."""
