@@ -21,7 +21,11 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 run: $(STAMP)
-	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ] || [ "$$(uname)" = Darwin ]; then \
+	@if ! $(PY) -c "import PySide6" >/dev/null 2>&1; then \
+		$(PY) -c "from app.qt_libraries import NO_QT_WHEEL, glibc_version; print(NO_QT_WHEEL.format(glibc=glibc_version()))"; \
+		echo "deskarm: running the headless demo instead"; \
+		$(VENV)/bin/deskarm --headless --scenario cups --duration 10; \
+	elif [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ] || [ "$$(uname)" = Darwin ]; then \
 		$(VENV)/bin/deskarm; \
 	else \
 		echo "deskarm: no display found (DISPLAY/WAYLAND_DISPLAY unset) — running the headless demo instead"; \

@@ -171,13 +171,31 @@ def report(missing: list[str], fonts: bool, codename: str, root: bool) -> str:
 
 def problem() -> str:
     """The report for this machine (empty when the window can start)."""
-    if not sys.platform.startswith("linux"):
-        return ""
+    if not sys.platform.startswith("linux") or pyside_folder() is None:
+        return ""  # no Qt installed (no wheel for this system): make run says so and runs headless
     return report(missing_libraries(), has_fonts(), debian_codename(), os.geteuid() == 0)
 
 
+NO_QT_WHEEL = (
+    "deskarm: the window needs PySide6 (Qt for Python) 6.9.3 or newer, and it is not installed: its "
+    "wheels need glibc 2.39, and this system has {glibc} (Raspberry Pi OS Bookworm has 2.36; 32-bit "
+    "systems have no wheel at all). Raspberry Pi OS Trixie (64-bit) runs the window. Here: deskarm "
+    "--headless runs the loop, and deskarm serve shares this desk so that the window runs on another "
+    "machine (deskarm --remote).")
+
+
+def glibc_version() -> str:
+    import platform
+
+    name, version = platform.libc_ver()
+    return version if name == "glibc" and version else "another C library"
+
+
 def import_failure_text(exc: ImportError) -> str:
-    """What to tell the user when importing Qt failed for a missing system library ("" otherwise)."""
+    """What to tell the user when importing Qt failed ("" when the error is not about Qt):
+    a missing system library under Qt, or no PySide6 at all (no wheel for this system)."""
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in ("PySide6", "shiboken6"):
+        return NO_QT_WHEEL.format(glibc=glibc_version())
     if "cannot open shared object file" not in str(exc):
         return ""
     return problem() or f"deskarm: {exc}"

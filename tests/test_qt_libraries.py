@@ -113,3 +113,16 @@ def test_other_import_errors_are_not_hidden(monkeypatch):
     monkeypatch.setattr(cli, "_main", failing)
     with pytest.raises(ImportError, match="zenoh"):
         cli.main([])
+
+
+def test_no_pyside_at_all_says_which_systems_run_the_window(monkeypatch, capsys):
+    import app.cli as cli
+
+    def failing(argv):
+        raise ModuleNotFoundError("No module named 'PySide6'", name="PySide6")
+
+    monkeypatch.setattr(cli, "_main", failing)
+    monkeypatch.setattr(ql, "glibc_version", lambda: "2.36")
+    assert cli.main([]) == 2
+    err = capsys.readouterr().err
+    assert "has 2.36" in err and "Trixie" in err and "deskarm --headless" in err and "--remote" in err
