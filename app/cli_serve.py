@@ -259,8 +259,8 @@ def run_client(args, link: LinkOptions) -> int:
             round_trip = rearmed = None
             if args.estop_test:
                 round_trip = client.estop_round_trip(timeout=2.0)
-                if args.rearm:
-                    rearmed = client.rearm()
+                if args.rearm:  # a deliberate act: claim control, hold the re-arm, give control back on close
+                    rearmed = client.wait_control() and client.rearm()
             session = client.session() or {}
             summary = {
                 "endpoint": args.client, "frames": frames, "fps": round(frames / elapsed, 2) if elapsed > 0 else 0.0,
@@ -278,9 +278,9 @@ def run_client(args, link: LinkOptions) -> int:
         print(f"{summary['frames']} frames ({summary['fps']} fps), latency p50 {summary['latency_ms_p50']} ms "
               f"p95 {summary['latency_ms_p95']} ms (server clock vs this one)"
               + (f", e-stop round trip {summary['estop_round_trip_ms']} ms" if args.estop_test else ""), flush=True)
-        if args.rearm and rearmed is False:
-            print("deskarm serve --client: the server did not re-arm — a re-arm needs the controller credential",
-                  file=sys.stderr)
+    if args.rearm and rearmed is False:
+        print("deskarm serve --client: the server did not re-arm — a re-arm needs the controller credential "
+              "and no other client in control", file=sys.stderr)
     if args.estop_test and round_trip is None:
         return 1
     return 0 if rearmed is not False else 1

@@ -98,7 +98,12 @@ class DeskClient:
         """Stop the heartbeat, give control back when this client holds it, close the session."""
         self.stop_heartbeat()
         if self._zenoh is not None and self.in_control():
-            self.release_control()
+            for _ in range(3):  # a put just before the session closes can be lost: until the server confirms
+                before = self.count("/deskarm/session")
+                self.release_control()
+                if self.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("controller") != self.client_id,
+                                 timeout=1.0, after=before) is not None:
+                    break
         if self._zenoh is not None:
             self._zenoh.close()
             self._zenoh = None
@@ -263,22 +268,22 @@ class DeskClient:
         self._send("/deskarm/cmd/settings", ros.json_msg(settings))
 
     def rearm(self, timeout: float = REARM_TIMEOUT_S, stop: Optional[threading.Event] = None) -> bool:
-        """Hold the re-arm: /deskarm/cmd/rearm at 10 Hz until the server reports it re-armed (True),
-        ``timeout`` passed or ``stop`` was set (False). Needs control (a controller credential)."""
+        """Hold the re-arm: /deskarm/cmd/rearm at 10 Hz until a server status newer than the
+        request says it is armed (True), ``timeout`` passed or ``stop`` was set (False). Needs
+        control (a controller credential); a viewer's requests never reach the server."""
         deadline = time.monotonic() + timeout
         self._ensure_control(True)
         period = 1.0 / HEARTBEAT_HZ
         stop = stop or threading.Event()
+        before = self.count("/deskarm/session")  # only a status sent after this counts (the last may be stale)
         while not stop.is_set():
-            status = self.session()
-            if status is not None and status.get("estopped") is False:
-                return True
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 return False
             self._send("/deskarm/cmd/rearm", ros.header(time.time(), self.client_id))
-            self.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("estopped") is False,
-                          timeout=min(period, remaining))
+            if self.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data).get("estopped") is False,
+                             timeout=min(period, remaining), after=before) is not None:
+                return True
         return False
 
     def request_rearm(self) -> threading.Thread:

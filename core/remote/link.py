@@ -64,6 +64,10 @@ class LinkOptions:
         if self.strict_connect and self.connect:
             keys["connect/timeout_ms"] = CONNECT_TIMEOUT_MS
             keys["connect/exit_on_failure"] = True
+        if self.listen:  # a server: a flood of commands is cut per connection before Python sees it
+            from core.remote.security import downsampling
+
+            keys["downsampling"] = downsampling(self.domain_id)
         if self.credential is not None:
             keys.update(self.credential.zenoh_keys())
         if self.security is not None:

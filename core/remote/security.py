@@ -26,13 +26,13 @@ base64) into its own ``remote/client.toml``.
 from __future__ import annotations
 
 import base64
+import math
 import os
 import re
 import secrets
 import socket
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from dataclasses import dataclass
@@ -175,12 +175,11 @@ class ServerSecurity:
         return self.folder / "users.txt"
 
     def zenoh_keys(self, domain_id: int = 0, tls_endpoints: bool = False) -> dict:
-        """Config keys: usrpwd with the dictionary, mutual TLS, access control, per-source rates."""
+        """Config keys: usrpwd with the dictionary, mutual TLS, access control."""
         keys = {
             "transport/auth/usrpwd": {"user": SERVER_USER, "password": self.password,
                                       "dictionary_file": str(self.users_file)},
             "access_control": access_control(domain_id),
-            "downsampling": downsampling(domain_id),
         }
         if tls_endpoints:
             if not self.tls:
@@ -374,6 +373,7 @@ class RefusalLog:
 
     FILTER = "error,zenoh_transport::unicast::establishment::accept=debug,zenoh_link_tls=warn"
     FD = 1  # tracing_subscriber's fmt writer is stdout
+    REPEAT_S = 10.0  # the same refusal again within this long is counted, not said again
 
     def __init__(self, emit: Callable[[str], None]):
         self.emit = emit
@@ -409,13 +409,17 @@ class RefusalLog:
             self._thread.join(timeout=2.0)
 
     def _pump(self, read_fd: int, out: int) -> None:
+        last_said: dict[str, float] = {}
         with os.fdopen(read_fd, "r", errors="replace") as pipe:
             for line in pipe:
                 reason = refusal_reason(line)
                 if reason is not None:
                     self.refused += 1
-                    self.emit(f"deskarm serve: refused a connection: {reason} — give that machine the "
-                              "controller.toml or viewer.toml `deskarm serve --pair` made")
+                    now = time.monotonic()
+                    if now - last_said.get(reason, -math.inf) >= self.REPEAT_S:  # a client retries every second
+                        last_said[reason] = now
+                        self.emit(f"deskarm serve: refused a connection: {reason} — give that machine the "
+                                  "controller.toml or viewer.toml `deskarm serve --pair` made")
                     continue
                 if "zenoh" in line and ("DEBUG" in line or "TRACE" in line):
                     continue

@@ -175,7 +175,8 @@ def fuzz_server(tmp_path):
         return send(command)
     session.bridge.send = recording_send
     rates = {topic: 1e9 for topic in ros.ALL_COMMANDS}  # the parsers, not the limiter, are under test here
-    server = DeskServer(session, ServerOptions(link=LinkOptions(listen=(endpoint,)), rate_hz=rates))
+    link = LinkOptions(listen=(endpoint,), extra={"downsampling": []})  # Zenoh's per-connection cut off too
+    server = DeskServer(session, ServerOptions(link=link, rate_hz=rates))
     thread = threading.Thread(target=server.run, name="fuzzed-server", daemon=True)
     thread.start()
     assert server.ready.wait(WAIT)
@@ -246,3 +247,51 @@ def _wait_applied(server, thread, received, what: str) -> None:
             assert remaining > 0, f"timed out: {what}"
             server.applied.wait(remaining)
     assert thread.is_alive(), f"the server thread died: {what}"
+
+
+def test_a_goal_flood_from_the_controller_is_rate_limited_and_counted(tmp_path):
+    """Default limits: Zenoh's downsampling cuts the flood per connection, the server's token
+    buckets count what they drop; the status says how many were dropped."""
+    problem = zenoh_loopback_problem()
+    if problem:
+        pytest.skip(problem)
+    import zenoh
+
+    from core.remote.client import DeskClient
+    from core.remote.server import DeskServer, ServerOptions
+    from core.session import DeskSession, SessionOptions
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
+    link = LinkOptions(listen=(endpoint,), extra={"downsampling": []})  # the server's own limiter alone first
+    server = DeskServer(session, ServerOptions(link=link))
+    thread = threading.Thread(target=server.run, name="flooded-server", daemon=True)
+    thread.start()
+    assert server.ready.wait(WAIT)
+    try:
+        with DeskClient(LinkOptions(connect=(endpoint,)), heartbeat=True) as client:
+            assert client.wait_control(WAIT)
+            pub = client._zenoh.declare_publisher(ros.key_expr("/deskarm/cmd/goal"),
+                                                  congestion_control=zenoh.CongestionControl.BLOCK)
+            payload = ros.serialize(ros.point_stamped((0.15, 0.0, 0.1), time.time()), "geometry_msgs/msg/PointStamped")
+            base = server.stats.received
+            n = 3000
+            for i in range(n):
+                client._seq += 1
+                pub.put(payload, attachment=ros.Attachment(client._seq, time.time_ns(), client._gid).encode())
+            _wait_applied(server, thread, lambda: server.stats.received - base >= n, "the flood arrived")
+            assert server.stats.dropped > 0 and server._limiter.dropped.get("/deskarm/cmd/goal", 0) > 0
+            assert server.stats.goals_received < n
+            status = client.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data)["dropped"] > 0, timeout=WAIT)
+            assert status is not None, client.session()
+    finally:
+        server.stop()
+        thread.join(WAIT)
+    assert not thread.is_alive()
+
+
+def test_servers_cut_command_floods_per_connection_in_zenoh():
+    keys = LinkOptions(listen=("tcp/127.0.0.1:7447",)).config_keys()
+    rules = {r["key_expr"]: r["freq"] for r in keys["downsampling"][0]["rules"]}
+    assert rules["0/deskarm/cmd/goal/**"] == 200.0 and keys["downsampling"][0]["flows"] == ["ingress"]
+    assert "downsampling" not in LinkOptions(connect=("tcp/127.0.0.1:7447",)).config_keys()  # clients do not

@@ -138,7 +138,9 @@ def test_target_position_from_the_ros_interface_moves_the_arm_when_no_client_hol
                                  and abs(r.msg.point.z - 0.12) < 1e-9, timeout=WAIT, after=before)
             assert r is not None, f"/target_position did not become the goal: {watcher.session()}"
             assert server.stats.goals_received > goals
-            assert json.loads(watcher.latest("/deskarm/session").msg.data)["mode"] == "manual"
+            manual = watcher.wait_for("/deskarm/session", lambda r: json.loads(r.msg.data)["mode"] == "manual",
+                                      timeout=WAIT)
+            assert manual is not None, watcher.session()
         finally:
             peer.close()
 

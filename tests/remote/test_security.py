@@ -36,7 +36,9 @@ def paired(tmp_path_factory):
         pytest.skip(problem)
     home = tmp_path_factory.mktemp("paired_home")
     files = security.pair(folder=home / "config" / "remote", hosts=("localhost", "127.0.0.1"))
-    return home, {role: security.load_credential(path) for role, path in files.items()}
+    creds = {role: security.load_credential(path) for role, path in files.items()}
+    creds["files"] = files
+    return home, creds
 
 
 @pytest.fixture(scope="module")
@@ -252,6 +254,23 @@ def test_one_controller_at_a_time_and_another_sessions_heartbeat_never_resumes(d
         other.send_settings({"mode": "manual"})
         other.release_control()
         status_where(viewer, lambda s: s["controller"] is None, "the release")
+
+
+def test_client_watches_stops_when_asked_and_never_rearms_unless_asked(desk, capsys):
+    from app.cli_serve import run
+
+    viewer_file = str(desk.creds["files"]["viewer"])
+    with viewer_of(desk) as viewer, controller_of(desk, heartbeat=True) as owner:
+        assert owner.rearm(timeout=WAIT), owner.session()
+        code = run("serve", ["--client", desk.endpoint, "--duration", "1", "--credentials", viewer_file,
+                             "--estop-test", "--json"])
+        summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert code == 0 and summary["estop_round_trip_ms"] is not None and summary["rearmed"] is None
+        status_where(viewer, lambda s: s["estopped"], "the --client e-stop")
+        after_frames(viewer)
+        assert viewer.session()["estopped"] is True, "deskarm serve --client re-armed the arm"
+        assert viewer.session()["controller"] == owner.client_id  # a watcher never claims the arm
+        assert owner.rearm(timeout=WAIT)
 
 
 @pytest.fixture(scope="module")
