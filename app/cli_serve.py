@@ -155,20 +155,22 @@ def run(command: str, argv: list[str]) -> int:
 
 def run_pair(args) -> int:
     """``--pair``: create the credentials and print what each other machine needs."""
+    import socket
+
+    from core.paths import user_dir
     from core.remote import security
 
-    hosts = tuple(args.pair_host or ()) + ("localhost", "127.0.0.1")
+    hosts = tuple(dict.fromkeys((*(args.pair_host or ()), socket.gethostname(), "localhost", "127.0.0.1")))
     files = security.pair(hosts=hosts, tls=not args.no_tls)
     folder = security.pairing_dir()
     print(f"deskarm serve: new credentials in {folder} (owner-only; the old ones no longer work)")
     for role, path in files.items():
         what = "drives the arm" if role == security.CONTROLLER else "watches and may press STOP"
-        print(f"  {role:10s} ({what}): copy {path} to the other machine's "
-              f"{'<config folder>'}/remote/{security.CLIENT_FILE} (or pass --credentials FILE)")
-    hosts_text = ", ".join(args.pair_host or ()) or "this machine's name or address"
-    print(f"then here: deskarm serve --network{' --tls' if not args.no_tls else ''}; there: deskarm --remote "
-          f"{'tls' if not args.no_tls else 'tcp'}/{(args.pair_host or ['HOST'])[0]}:{DEFAULT_PORT}"
-          f"  (certificates name: {hosts_text})")
+        print(f"  {role:10s} ({what}): copy {path} to the other machine as <its config folder>/remote/"
+              f"{security.CLIENT_FILE} (on this one that folder is {user_dir('config')}), or pass --credentials FILE")
+    proto = "tcp" if args.no_tls else "tls"
+    print(f"then here: deskarm serve --network{'' if args.no_tls else ' --tls'}; there: deskarm --remote "
+          f"{proto}/{hosts[0]}:{DEFAULT_PORT}" + ("" if args.no_tls else f"  (the certificate names {', '.join(hosts)})"))
     return 0
 
 
