@@ -337,7 +337,7 @@ class _ObjectGraphics:
         self.object_id: Optional[int] = None
         self.box: Optional[tuple[float, float, float, float]] = None
         self.colour: Optional[tuple[int, int, int]] = None  # of the outline and the label's text
-        self._style: Optional[tuple[tuple[int, int, int], bool]] = None  # (colour, seen) of the pen
+        self._style: Optional[tuple] = None  # (colour, seen, unsure) of the pen
         self._shown: Optional[ObjectOverlay] = None  # what the items show now
 
     @property
@@ -352,13 +352,14 @@ class _ObjectGraphics:
         if shown is not None and shown.object_id == o.object_id and same_objects([o], [shown]):
             return False  # a still object (most of a desk): nothing to set
         colour = o.colour if o.colour is not None else object_colour(o.object_id)
-        if (colour, o.seen) != self._style:  # a moving object: only its place and text change
-            style = QtCore.Qt.PenStyle.SolidLine if o.seen else QtCore.Qt.PenStyle.DashLine
-            self.outline.setPen(pg.mkPen(colour, width=3, style=style))
+        if (colour, o.seen, o.unsure) != self._style:  # a moving object: only its place and text change
+            style = (QtCore.Qt.PenStyle.DotLine if o.unsure else
+                     QtCore.Qt.PenStyle.SolidLine if o.seen else QtCore.Qt.PenStyle.DashLine)
+            self.outline.setPen(pg.mkPen(colour, width=2 if o.unsure else 3, style=style))
             self.label_text.setColor(colour)
             self.label_text.fill = _fill_for(colour)
             self.label_text.update()
-            self._style = (colour, o.seen)
+            self._style = (colour, o.seen, o.unsure)
         if shown is None or shown.outline.shape != o.outline.shape or not np.array_equal(shown.outline, o.outline):
             closed = np.vstack([o.outline, o.outline[:1]])
             self.outline.setData(closed[:, 0], closed[:, 1])

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
 import cv2
@@ -30,6 +30,8 @@ OVERLAY_INSET_PX = 4  # overlay text keeps this far from the edges of the area i
 OBJECT_COLOURS = ((0, 200, 255), (255, 80, 220), (255, 225, 0), (255, 110, 60),
                   (110, 160, 255), (170, 255, 70), (255, 160, 190), (235, 235, 235))
 OBJECT_TAP_MARGIN_PX = 6.0  # a tap this near an object's box (image px) still picks it
+UNSURE_COLOUR = (135, 135, 135)  # an object scoring below its class's threshold: grey, dotted, "unsure"
+UNSURE_TEXT = "unsure"
 CIRCLE_POINTS = 40  # outline of a circle detection
 OBJECT_LABEL_PT = 8.0  # object labels: several per view, bold but smaller than a marker's id
 MARKER_ID_PT = 12.0  # a marker's id, on the marker
@@ -159,6 +161,8 @@ class ObjectOverlay:
     single-view or predicted detection (drawn dashed). ``label`` may have several lines.
     ``colour`` (r, g, b) of the outline and the label's text; None: the colour the label names
     (:func:`named_colour`: "#8 orange" is orange), else the track's (:func:`object_colour`).
+    ``score``, ``kind`` and ``class_label`` are the observation's (for per-class thresholds:
+    ``judged``); ``unsure``: below its class's threshold — drawn grey and dotted, nothing acts on it.
     """
 
     object_id: int
@@ -167,6 +171,10 @@ class ObjectOverlay:
     label: str = ""
     seen: bool = True
     colour: Optional[tuple[int, int, int]] = None
+    score: Optional[float] = None
+    kind: str = ""
+    class_label: str = ""
+    unsure: bool = False
 
     def __post_init__(self) -> None:
         outline = np.asarray(self.outline, dtype=float).reshape(-1, 2)
@@ -189,13 +197,25 @@ class ObjectOverlay:
         if label is None:
             label = object_label(obs, detailed)
         return cls(obs.object_id, d.box, _detection_outline(d), label, bool(obs.triangulated),
-                   named_colour(str(obs.label)))
+                   named_colour(str(obs.label)), float(obs.score), str(obs.kind), str(obs.label))
+
+    def judged(self, thresholds) -> "ObjectOverlay":
+        """This overlay as ``thresholds`` (``core.detect.thresholds.ClassThresholds``) see it: an
+        object scoring below its class's threshold becomes unsure (grey, dotted, "unsure" after the
+        label's first line); one without a score, or sure, is returned as it is."""
+        if thresholds is None or self.score is None or self.unsure:
+            return self
+        if self.score >= thresholds.threshold(self.kind, self.class_label or self.label):
+            return self
+        first, sep, rest = self.label.partition("\n")
+        return replace(self, label=f"{first} {UNSURE_TEXT}{sep}{rest}", colour=UNSURE_COLOUR, unsure=True)
 
 
 def same_objects(a: Sequence[ObjectOverlay], b: Sequence[ObjectOverlay]) -> bool:
     """True when two object overlay lists draw the same (ids, boxes, outlines, labels, colours, state)."""
     return len(a) == len(b) and all(
         x is y or (x.object_id == y.object_id and x.seen == y.seen and x.label == y.label and x.box == y.box
+                   and x.unsure == y.unsure
                    and x.colour == y.colour and x.outline.shape == y.outline.shape
                    and np.array_equal(x.outline, y.outline))
         for x, y in zip(a, b))

@@ -108,6 +108,8 @@ class CameraView(QtWidgets.QWidget):
         self._markers: list[_MarkerGraphics] = []
         self._objects: list[_ObjectGraphics] = []
         self._shown_objects: list[ObjectOverlay] = []
+        self._given_objects: list[ObjectOverlay] = []  # as set, before the thresholds judged them
+        self._object_thresholds = None  # per-class score thresholds (set_object_thresholds)
 
         self._title = QtWidgets.QLabel(title)
         font = self._title.font()
@@ -343,9 +345,20 @@ class CameraView(QtWidgets.QWidget):
             slot.hide()
         self._layout_labels()
 
+    def set_object_thresholds(self, thresholds) -> None:
+        """Per-class score thresholds (``core.detect.thresholds.ClassThresholds``, None: none): an
+        object scoring below its class's is drawn grey and dotted, "unsure" (``ObjectOverlay.judged``);
+        the objects shown now are drawn again under the new thresholds."""
+        self._object_thresholds = thresholds
+        if self._given_objects:
+            self.set_objects(self._given_objects)
+
     def set_objects(self, objects: Sequence[ObjectOverlay]) -> None:
         """Draw these marker-less objects (replacing the previous ones); the same again is
         skipped. Graphics items are reused between frames (only hidden when unused)."""
+        self._given_objects = list(objects)
+        if self._object_thresholds is not None:
+            objects = [o.judged(self._object_thresholds) for o in objects]
         if same_objects(objects, self._shown_objects) and not self.redraw_unchanged:
             return
         self._shown_objects = list(objects)

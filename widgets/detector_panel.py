@@ -19,6 +19,9 @@ Signals (GUI thread):
         toggle (at once) or a slider (coalesced, at most one per THROTTLE_MS); [] = all off.
     sigPickToggled(bool): "Pick colour" was switched on (the next tap on a camera view is a
         colour sample: the window calls ``add_picked_colour``) or off.
+    sigThresholdsChanged(object): the per-class score thresholds ("Sure above", a
+        ``core.detect.thresholds.ClassThresholds``) after the user moved the slider: an object
+        scoring below its class's is unsure — drawn grey, never followed.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ from PySide6 import QtCore, QtWidgets
 
 from core.detect.circles import CircleParams
 from core.detect.colour import HUE_MAX, HsvParams, HsvRange
+from core.detect.thresholds import ClassThresholds
 from core.settings import SettingsError
 from widgets._style import (
     ERROR_COLOUR,
@@ -51,6 +55,8 @@ ONNX_TEXT_CHARS = 10  # a model file's toggle shows this much of its name (the t
 LEARNED_DEFAULTS = {"score_threshold": 0.25, "nms_iou": 0.45}  # OnnxYoloParams' defaults
 MARKERS_ON_TEXT = "✓ ArUco markers: on, in every frame (Markers tab)"
 TOGGLE_TEXTS = {ARUCO: "markers as objects"}  # a detector's toggle when its name would mislead
+LEARNED_CLASSES, OTHER_CLASSES = "*learned", "*other"  # the threshold combo's two default rows (data)
+THRESHOLD_DEFAULT_TEXTS = {LEARNED_CLASSES: "any learned class", OTHER_CLASSES: "any colour or circle"}
 
 
 @dataclass(frozen=True)
@@ -167,6 +173,7 @@ class DetectorPanel(QtWidgets.QWidget):
 
     sigDetectorsChanged = QtCore.Signal(object)
     sigPickToggled = QtCore.Signal(bool)
+    sigThresholdsChanged = QtCore.Signal(object)
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -179,6 +186,8 @@ class DetectorPanel(QtWidgets.QWidget):
         self._colour_index = 0
         self._coalescer = Coalescer(THROTTLE_MS, self._emit_now, self)
         self._last_sent: Optional[list] = None
+        self._thresholds = ClassThresholds()
+        self._class_kinds: dict[str, str] = {}  # class label -> its detector's kind (for its default)
 
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(4, 4, 4, 4)
@@ -225,6 +234,25 @@ class DetectorPanel(QtWidgets.QWidget):
         self.message_label.setWordWrap(True)
         self.message_label.hide()
         layout.addWidget(self.message_label)
+
+        # --- per-class score thresholds: below its class's, an object is unsure (grey, not followed)
+        sure = QtWidgets.QHBoxLayout()
+        sure.setSpacing(4)
+        sure.addWidget(QtWidgets.QLabel("Sure above"))
+        self.class_combo = touch_combo(QtWidgets.QComboBox())
+        self.class_combo.setObjectName("threshold_class_combo")
+        self.class_combo.setToolTip("the class whose threshold the slider sets; classes are added as they are seen")
+        for data, text in THRESHOLD_DEFAULT_TEXTS.items():
+            self.class_combo.addItem(text, data)
+        self.class_combo.currentIndexChanged.connect(self._show_threshold)
+        sure.addWidget(self.class_combo, 1)
+        self.threshold_slider = ValueSlider(_Slider("threshold", "Sure above", 0.0, 1.0, 0.01, 2))
+        self.threshold_slider.setToolTip("an object scoring below this is unsure: drawn grey and dotted, "
+                                         "and the arm does not follow it")
+        self.threshold_slider.valueChanged.connect(self._on_threshold)
+        sure.addWidget(self.threshold_slider, 1)
+        layout.addLayout(sure)
+        self._show_threshold()
 
         # --- one detector's settings at a time
         chooser = QtWidgets.QHBoxLayout()
@@ -417,6 +445,59 @@ class DetectorPanel(QtWidgets.QWidget):
             self.add_onnx(name.split(":", 1)[1]) if on else self.onnx_toggle.setChecked(False)
             return
         self.toggles[name].setChecked(on)
+
+    # --- per-class thresholds
+    @property
+    def thresholds(self) -> ClassThresholds:
+        """The per-class score thresholds as shown."""
+        return self._thresholds
+
+    def set_known_classes(self, classes: Sequence[tuple[str, str]]) -> None:
+        """Offer these classes, (label, detector kind) each — those seen so far —, in the
+        threshold's class list; a label already there stays where it is; emits nothing."""
+        for label, kind in classes:
+            label = str(label)
+            if label and label not in self._class_kinds and label not in THRESHOLD_DEFAULT_TEXTS:
+                self._class_kinds[label] = str(kind)
+                self.class_combo.addItem(label, label)
+
+    @property
+    def known_classes(self) -> list[str]:
+        """The class labels the threshold's list offers (after its two defaults)."""
+        return list(self._class_kinds)
+
+    def set_threshold(self, label: str, value: float, kind: str = "object") -> None:
+        """Set ``label``'s threshold (LEARNED_CLASSES / OTHER_CLASSES: a default) as the slider
+        would, and show it; emits sigThresholdsChanged."""
+        self.set_known_classes([(label, kind)])
+        self.class_combo.setCurrentIndex(self.class_combo.findData(label))
+        self.threshold_slider.setValue(value)
+        self._on_threshold(self.threshold_slider.value())
+
+    def _threshold_of(self, data: str) -> float:
+        t = self._thresholds
+        if data == LEARNED_CLASSES:
+            return t.learned_default
+        if data == OTHER_CLASSES:
+            return t.other_default
+        return t.threshold(self._class_kinds.get(data, ""), data)
+
+    def _show_threshold(self, *_: object) -> None:
+        data = self.class_combo.currentData()
+        if data is not None:
+            self.threshold_slider.setValue(self._threshold_of(data))
+
+    def _on_threshold(self, value: float) -> None:
+        data = self.class_combo.currentData()
+        t = self._thresholds
+        if data == LEARNED_CLASSES:
+            t = ClassThresholds(t.per_class, value, t.other_default)
+        elif data == OTHER_CLASSES:
+            t = ClassThresholds(t.per_class, t.learned_default, value)
+        elif data is not None:
+            t = t.with_class(data, value)
+        self._thresholds = t
+        self.sigThresholdsChanged.emit(t)
 
     # --- HSV colours
     @property

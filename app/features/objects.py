@@ -4,7 +4,9 @@
 asks for are built and re-tuned by the perception worker between frames, and what runs comes
 back here (``running``). With "Pick colour" on, the next tap on a camera view turns the pixels
 around it into a named HSV colour; a tap on an object's box makes the Target tab's Object mode
-follow that object.
+follow that object. "Sure above" sets per-class score thresholds: an object below its class's is
+unsure — the camera views draw it grey (``attach_views``), OBJECT mode's targeting skips it and a
+tap on it says so instead of following it.
 
 Signals (GUI thread): ``sigNote(str)`` — a message for the banner; ``sigChanged()`` — something
 drawn changed (the detectors that run).
@@ -16,6 +18,7 @@ from typing import Callable, Optional
 from PySide6 import QtCore
 
 from core.detect.colour import colour_from_pixel
+from core.detect.thresholds import ClassThresholds
 from core.messages import TargetMode
 from widgets.detector_panel import DetectorPanel
 
@@ -40,12 +43,44 @@ class ObjectsFeature(QtCore.QObject):
         self.page = self.detector_panel = DetectorPanel()  # marker-less objects: detectors and their settings
         self.detector_panel.sigDetectorsChanged.connect(self.on_detectors_changed)
         self.detector_panel.sigPickToggled.connect(self.on_pick_toggled)
+        self.detector_panel.sigThresholdsChanged.connect(self.on_thresholds_changed)
+        self._views: tuple = ()  # camera views that draw unsure objects grey (attach_views)
+        self._classes: set = set()  # (label, kind) seen so far: the threshold list offers them
+        session.targeter.set_object_thresholds(self.thresholds)
+        perception_worker.sigResult.connect(self.on_result)
         perception_worker.sigDetectorsApplied.connect(self.on_detectors_applied)
         perception_worker.sigDetectorError.connect(self.on_detector_error)
         running = [(d.spec_name, d.params) for d in perception_worker.object_detectors()]  # --detector
         self.running: list[str] = [name for name, _ in running]  # what the perception worker runs (names)
         self.detector_panel.set_detectors(running)
         self.update_hint()
+
+    @property
+    def thresholds(self) -> ClassThresholds:
+        """The per-class score thresholds of the Objects tab."""
+        return self.detector_panel.thresholds
+
+    def attach_views(self, views) -> None:
+        """Camera views (``widgets.camera_view.CameraView``) that draw unsure objects grey."""
+        self._views = tuple(views)
+        for view in self._views:
+            view.set_object_thresholds(self.thresholds)
+
+    @QtCore.Slot(object)
+    def on_thresholds_changed(self, thresholds) -> None:
+        """"Sure above" moved: targeting and the views judge objects by the new thresholds."""
+        self.session.targeter.set_object_thresholds(thresholds)
+        for view in self._views:
+            view.set_object_thresholds(thresholds)
+        self.sigChanged.emit()
+
+    @QtCore.Slot(object)
+    def on_result(self, result) -> None:
+        """A perception result: its object classes join the threshold's class list."""
+        new = {(o.label, o.kind) for o in getattr(result, "objects", ())} - self._classes
+        if new:
+            self._classes |= new
+            self.detector_panel.set_known_classes(sorted(new))
 
     @property
     def picking(self) -> bool:
@@ -113,6 +148,11 @@ class ObjectsFeature(QtCore.QObject):
         obs = None if r is None else r.object_observation(object_id)
         label = obs.label if obs is not None else ""
         name = f"{label or 'object'} #{object_id}"
+        if obs is not None and hasattr(obs, "score") and not self.thresholds.is_sure(obs):
+            limit = self.thresholds.threshold(obs.kind, obs.label)
+            self.sigNote.emit(f"{name} is unsure (score {obs.score:.2f} < {limit:.2f}): not followed — lower "
+                              f"the “Sure above” threshold of {label or 'its class'} in the Objects tab")
+            return
         if self.session.targeter.mode is not TargetMode.OBJECT:
             self.sigNote.emit(f"{name}: choose the Target tab's Object mode to follow it")
             return

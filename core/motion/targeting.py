@@ -542,6 +542,9 @@ class Targeter:
         self.follower = ObjectFollower(self.pointing, object_follow)  # OBJECT mode's state
         self.teleop = None  # TELEOP mode's core.motion.teleop.TeleopController (set_teleop), None: hold
         self._last_mode = self.mode
+        # OBJECT mode follows only objects these thresholds call sure (``is_sure(observation)``, e.g.
+        # core.detect.thresholds.ClassThresholds: per-class scores); None: every object
+        self.object_thresholds = None
 
     # --- setters (GUI thread) ---------------------------------------------------------------
     @_user_input
@@ -586,6 +589,14 @@ class Targeter:
             self.follow_object_label = str(label or "")
             self.follow_object_id = None if object_id is None else int(object_id)
             self.follower.follow(self.follow_object_label, self.follow_object_id)
+
+    @_user_input
+    def set_object_thresholds(self, thresholds) -> None:
+        """OBJECT mode ignores objects ``thresholds.is_sure(observation)`` calls unsure (None: none)."""
+        if thresholds is not None and not callable(getattr(thresholds, "is_sure", None)):
+            raise TypeError(f"object thresholds need is_sure(observation), got {type(thresholds).__name__}")
+        with self._lock:
+            self.object_thresholds = thresholds
 
     @_user_input
     def set_object_follow_params(self, params: ObjectFollowParams) -> None:
@@ -708,6 +719,9 @@ class Targeter:
     def _goal_for_object(self, result, mode, t, source_t) -> Goal:
         """OBJECT mode: the follower's goal (``ObjectFollower``), or hold with its note."""
         objects = result.objects if result is not None else ()
+        thresholds = self.object_thresholds
+        if thresholds is not None:  # an unsure object is shown (grey), never followed
+            objects = tuple(o for o in objects if thresholds.is_sure(o))
         p, note = self.follower.goal(objects, t, source_t)
         if p is None or not all(map(math.isfinite, p)):
             return Goal(self._seq.next(), t, self.manual_target, mode, source_t, valid=False,
