@@ -29,6 +29,8 @@ MAX_PAYLOAD = {  # bytes: CDR with its 4-byte header; a frame_id or client id of
     "/deskarm/cmd/rearm": 128,
     "/deskarm/cmd/control": 512,
     "/target_position": 40,
+    "/target_pitch": 16,
+    "/target_roll": 16,
 }
 MAX_JSON_DEPTH = 4  # {"camera": {...}} is 2
 REACH_M = 2.0  # |x|, |y|, |z| of a goal beyond this is no desk arm's (robot_base, m)
@@ -174,6 +176,14 @@ def client_id(value) -> str:
     if not isinstance(value, str) or not CLIENT_ID_RE.fullmatch(value):
         raise Refused(f"client id {short(value, 40)}: expected 1–64 letters, digits or _.:@-")
     return value
+
+
+def check_angle(topic: str, value) -> float:
+    """A finite angle within ±π (rad), or Refused."""
+    v = float(value)
+    if not math.isfinite(v) or abs(v) > math.pi:
+        raise Refused(f"{topic} {v!r} rad: expected a finite angle within ±π")
+    return v
 
 
 def check_goal(p) -> tuple[float, float, float]:

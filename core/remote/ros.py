@@ -68,6 +68,8 @@ COMMANDS: dict[str, str] = {
 # the ROS interface's commands (a ROS 2 machine with rmw_zenoh and the controller credential)
 ROS_COMMANDS: dict[str, str] = {
     "/target_position": "geometry_msgs/msg/Point",  # robot_base, m: a manual goal
+    "/target_pitch": "std_msgs/msg/Float64",  # rad: the tool's pitch (arms with a wrist)
+    "/target_roll": "std_msgs/msg/Float64",  # rad: the tool's roll (arms with a wrist)
 }
 ALL_COMMANDS = {**COMMANDS, **ROS_COMMANDS}
 ALL_TOPICS = {**TOPICS, **STANDARD_TOPICS, **ALL_COMMANDS}

@@ -48,13 +48,15 @@ CLIENT_FILE = "client.toml"  # on the other machine: the credential it uses by d
 # controller may: everything that moves, re-arms or hands over the arm.
 VIEWER_COMMANDS = ("/deskarm/cmd/estop",)
 CONTROLLER_COMMANDS = ("/deskarm/cmd/goal", "/deskarm/cmd/settings", "/deskarm/cmd/heartbeat",
-                       "/deskarm/cmd/rearm", "/deskarm/cmd/control", "/target_position")
+                       "/deskarm/cmd/rearm", "/deskarm/cmd/control", "/target_position", "/target_pitch",
+                       "/target_roll")
 
 # Per-connection rates above which Zenoh itself drops commands before they reach Python (Hz).
 # Zenoh's downsampling drops any sample closer than 1/freq to the previous one on that key, so
 # only streams that are sent periodically are cut here (a flood of goals costs Python nothing);
 # sparse commands (settings, control) keep every sample and meet the server's token buckets.
-COMMAND_RATE_HZ = {"/deskarm/cmd/goal": 200.0, "/target_position": 200.0, "/deskarm/cmd/heartbeat": 50.0,
+COMMAND_RATE_HZ = {"/deskarm/cmd/goal": 200.0, "/target_position": 200.0, "/target_pitch": 200.0,
+                   "/target_roll": 200.0, "/deskarm/cmd/heartbeat": 50.0,
                    "/deskarm/cmd/rearm": 50.0, "/deskarm/cmd/estop": 100.0}
 
 

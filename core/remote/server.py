@@ -27,7 +27,10 @@ time and checks every payload (``core.remote.commands``). Commands (``/deskarm/c
   (``controller.pause("remote link lost")``) until that same client's heartbeats return —
   another session's heartbeat never resumes it.
 - ``/target_position`` (geometry_msgs/Point, the ROS interface): a goal, while no deskarm client
-  holds control.
+  holds control; ``/target_pitch`` / ``/target_roll`` (std_msgs/Float64, rad) the tool's
+  orientation on arms with a wrist (refused with the reason on position-only arms). The
+  original interface's ``/motor_commands`` (raw joint values) has no equivalent: every motion
+  goes through deskarm's IK, limits and workspace checks.
 
 Goal, settings, re-arm and heartbeat count only from the controlling client (the sample's
 rmw attachment GID and the id it claimed with). Payloads are size-limited before decoding,
@@ -393,6 +396,10 @@ class DeskServer:
                 raise cmds.Refused(f"/target_position: {self._holder[0]} is in control of the arm")
             self.stats.goals_received += 1
             self._set_goal(cmds.check_goal((msg.x, msg.y, msg.z)))
+        elif topic in ("/target_pitch", "/target_roll"):
+            if self._holder is not None:
+                raise cmds.Refused(f"{topic}: {self._holder[0]} is in control of the arm")
+            self._set_tool_angle(topic, cmds.check_angle(topic, msg.data))
         elif topic == "/deskarm/cmd/settings":
             self._from_holder(topic, source)
             self._apply_settings(msg.data)
@@ -408,6 +415,25 @@ class DeskServer:
         self._status_dirty = True
         if self.schedule is not None:
             self.schedule.goal_arrived(s.clock.now())
+
+    def _set_tool_angle(self, topic: str, angle: float) -> None:
+        """/target_pitch or /target_roll: the manual target's tool orientation (arms with a wrist)."""
+        s = self.s
+        if not hasattr(s.kinematics, "ik_pose"):
+            raise cmds.Refused(f"{topic}: this arm ({s.profile.name}) has no wrist to orient — it takes "
+                               "positions only (/target_position)")
+        target = s.targeter.manual_target
+        if target is None:
+            raise cmds.Refused(f"{topic}: send /target_position first (an orientation needs a position)")
+        roll, pitch, yaw = s.targeter.manual_rpy or (0.0, 0.0, 0.0)
+        rpy = (angle, pitch, yaw) if topic == "/target_roll" else (roll, angle, yaw)
+        try:
+            s.targeter.set_mode(TargetMode.MANUAL)
+            s.targeter.set_manual_pose(target, rpy, s.targeter.manual_grip_m)
+        except ValueError as exc:
+            raise cmds.Refused(f"{topic}: {exc}") from None
+        self._goal = s.targeter.update(None)
+        self._status_dirty = True
 
     def _apply_control(self, text: str, source: str) -> None:
         action, cid, take = cmds.parse_control(text)

@@ -145,6 +145,23 @@ def test_target_position_from_the_ros_interface_moves_the_arm_when_no_client_hol
             peer.close()
 
 
+def test_pitch_and_roll_on_an_arm_without_a_wrist_are_refused_with_the_reason(served):
+    from core.remote.client import DeskClient
+
+    with DeskClient(LinkOptions(connect=(served["endpoint"],)), heartbeat=False, control=False) as watcher:
+        assert watcher.wait_for("/deskarm/session", timeout=WAIT) is not None
+        peer = open_session(LinkOptions(connect=(served["endpoint"],)))
+        try:
+            angle = ros.typestore().types["std_msgs/msg/Float64"](data=0.3)
+            peer.put(ros.key_expr("/target_pitch"), ros.serialize(angle, "std_msgs/msg/Float64"),
+                     attachment=ros.Attachment(2, time.time_ns(), b"ros2-publisher-1").encode())
+            r = watcher.wait_for("/deskarm/session", lambda r: any(
+                "/target_pitch" in t and "no wrist" in t for t in json.loads(r.msg.data)["refused"]), timeout=WAIT)
+            assert r is not None, watcher.session()
+        finally:
+            peer.close()
+
+
 def test_stream_and_recording_stamp_a_frame_identically(served):  # last: it stops the served desk
     from mcap_ros2.reader import read_ros2_messages
 
