@@ -81,7 +81,7 @@ class RemoteDesk:
     (when this object opened it; a client handed in stays open, its owner closes it).
     """
 
-    def __init__(self, endpoint: Optional[str] = None, client=None, domain_id: int = 0):
+    def __init__(self, endpoint: Optional[str] = None, client=None, domain_id: int = 0, credential=None):
         if endpoint is None and client is None:
             raise ValueError("a remote desk needs an endpoint (e.g. tcp/192.168.1.20:7447) or a DeskClient")
         if endpoint is None:
@@ -90,6 +90,7 @@ class RemoteDesk:
             check_endpoint(endpoint)
         self.endpoint = endpoint
         self.domain_id = int(domain_id)
+        self.credential = credential  # security.Credential; None: this machine's remote/client.toml if any
         self._client = client
         self._owns_client = client is None
         self._users: set[int] = set()
@@ -110,7 +111,7 @@ class RemoteDesk:
                 from core.remote.security import CredentialError, default_credential
 
                 try:
-                    credential = default_credential()
+                    credential = self.credential if self.credential is not None else default_credential()
                 except CredentialError as exc:
                     raise RemoteDeskError(str(exc)) from None
                 link = LinkOptions(connect=(self.endpoint,), scouting=False, domain_id=self.domain_id,
@@ -499,11 +500,12 @@ def _refused(client) -> bool:
         return False
 
 
-def open_remote_desk(endpoint: str, profile, clock=None, timeout: float = CONNECT_TIMEOUT_S):
+def open_remote_desk(endpoint: str, profile, clock=None, timeout: float = CONNECT_TIMEOUT_S, credential=None):
     """(camera, bridge) of the desk served at ``endpoint``: the camera connected and its
     calibration and pose received, the bridge not yet connected. RemoteDeskError when the
-    server does not answer within ``timeout`` seconds."""
-    desk = RemoteDesk(endpoint)
+    server does not answer within ``timeout`` seconds, or refused this machine's credential
+    (``credential``, default: the config folder's remote/client.toml)."""
+    desk = RemoteDesk(endpoint, credential=credential)
     camera = RemoteStereoCamera(desk, clock=clock)
     camera.connect()
     try:

@@ -273,6 +273,18 @@ def test_client_watches_stops_when_asked_and_never_rearms_unless_asked(desk, cap
         assert owner.rearm(timeout=WAIT)
 
 
+def test_a_remote_desk_without_the_credential_says_it_was_refused_and_with_it_opens(desk):
+    from core.remote.desk import RemoteDeskError, open_remote_desk
+
+    with pytest.raises(RemoteDeskError, match="refused this machine"):
+        open_remote_desk(desk.endpoint, profile=None, timeout=3.0)  # this test's config folder has no client.toml
+    camera, bridge = open_remote_desk(desk.endpoint, profile=None, timeout=WAIT, credential=desk.creds["viewer"])
+    try:
+        assert camera.calibration() is not None and camera.base_T_camera() is not None
+    finally:
+        camera.disconnect()
+
+
 @pytest.fixture(scope="module")
 def tls_desk(paired):
     home, creds = paired
