@@ -34,6 +34,7 @@ from typing import Callable, Iterable, Optional
 
 import numpy as np
 
+from app.rtx_init import attach_status
 from core.devices.bridge import BridgeError
 from core.devices.reconnect import Reconnector
 from core.messages import TargetMode
@@ -322,6 +323,7 @@ class HeadlessRunner:
     def run(self) -> RunMetrics:
         s, m = self.s, self.metrics
         clock = s.clock
+        attach_status(s.bridge, self.status)  # an RTX says its initialisation (?init=auto) on stderr
         s.bridge.connect()  # a board missing at the start is an error (one line), not a wait
         self.reconnector.ensure(s.bridge)
         schedule = self.schedule = s.control_schedule()

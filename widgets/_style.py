@@ -366,6 +366,16 @@ class Coalescer(QtCore.QObject):
             callback()
 
 
+def bold_label(label: QtWidgets.QLabel, scale: float = 1.0) -> QtWidgets.QLabel:
+    """``label`` in bold, its font scaled by ``scale``."""
+    font = label.font()
+    font.setBold(True)
+    if scale != 1.0:
+        font.setPointSizeF(font.pointSizeF() * scale)
+    label.setFont(font)
+    return label
+
+
 def weak_callable(callback):
     """A zero-argument function returning ``callback`` (None once a bound method's object is gone)."""
     if inspect.ismethod(callback):

@@ -16,6 +16,7 @@ from PySide6 import QtCore, QtWidgets
 from core.vision.board_print import PRINT_DPI
 from core.vision.stereo_calibration import BoardSpec, Coverage
 from widgets._style import ACCENT_COLOUR, ERROR_COLOUR, OK_COLOUR, TOUCH_PX, WARN_COLOUR
+from widgets._style import bold_label as _bold
 PAGES = ("board", "capture", "results")
 METERS = (("x", "X"), ("y", "Y"), ("size", "Size"), ("skew", "Skew"))
 MIN_PAIRS = 4  # CalibrationOptions.min_pairs: Calibrate is enabled from here
@@ -80,15 +81,6 @@ def board_picture(board: BoardSpec, px_per_square: int = 24) -> np.ndarray:
 def worst_count(used: int) -> int:
     """How many of the used pairs to mark as the worst: 1 below 8 pairs, then 2, then 3 from 16."""
     return 0 if used == 0 else 1 if used < 8 else 2 if used < 16 else 3
-
-
-def _bold(label: QtWidgets.QLabel, scale: float = 1.0) -> QtWidgets.QLabel:
-    font = label.font()
-    font.setBold(True)
-    if scale != 1.0:
-        font.setPointSizeF(font.pointSizeF() * scale)
-    label.setFont(font)
-    return label
 
 
 def _status_style(level: str) -> str:

@@ -53,6 +53,7 @@ from widgets.camera_view import CameraView, MarkerOverlay
 from widgets._plots import static_bar_plot
 from widgets.estop import StopDialog
 from widgets.help_dialog import EStopStrip
+from widgets._style import bold_label as _bold
 
 PAGES = ("method", "run", "result")
 NAME = "Camera → arm calibration"  # what the window's button, this dialog and its messages call it
@@ -119,15 +120,6 @@ def _status_style(level: str) -> str:
     colour = {"ok": OK_COLOUR, "warn": WARN_COLOUR, "error": ERROR_COLOUR, "info": INFO_COLOUR}[level]
     return (f"QLabel {{ background: {colour}; color: white; font-weight: bold; padding: 4px 8px;"
             f" border-radius: 3px; }}")
-
-
-def _bold(label: QtWidgets.QLabel, scale: float = 1.0) -> QtWidgets.QLabel:
-    font = label.font()
-    font.setBold(True)
-    if scale != 1.0:
-        font.setPointSizeF(font.pointSizeF() * scale)
-    label.setFont(font)
-    return label
 
 
 def _short(path: str, keep: int = 2) -> str:
