@@ -297,24 +297,32 @@ class DeskServer:
     def _receive(self, topic: str, msgtype: str, sample) -> None:
         received = time.monotonic()
         source = _source_of(sample)
+        if topic == "/deskarm/cmd/estop":  # a STOP is never rate-limited away: it holds before anything else
+            payload = sample.payload.to_bytes()
+            refusal = ""
+            try:
+                msg = cmds.decode(topic, payload, msgtype)
+            except cmds.Refused as exc:
+                msg, refusal = None, str(exc)
+            if msg is not None and msg.data is True:
+                self.s.controller.estop()  # at once: the next control step, in any thread, sends nothing
+                self._wake()  # the loop stops the bridge and echoes now, not after its wait
         with self._limiter_lock:  # callbacks of different subscribers may run at once
             self.stats.received += 1
             allowed = self._limiter.allow(topic, source, received)
         if not allowed:
             self.stats.dropped += 1
             return
-        payload = sample.payload.to_bytes()
-        try:
-            msg = cmds.decode(topic, payload, msgtype)
-        except cmds.Refused as exc:
-            self._inbox_put(("refuse", str(exc), received, source))
+        if topic != "/deskarm/cmd/estop":
+            try:
+                msg = cmds.decode(topic, sample.payload.to_bytes(), msgtype)
+            except cmds.Refused as exc:
+                self._inbox_put(("refuse", str(exc), received, source))
+                return
+        elif msg is None:
+            self._inbox_put(("refuse", refusal, received, source))
             return
-        if topic == "/deskarm/cmd/estop" and msg.data is True:
-            self.s.controller.estop()  # at once: the next control step, in any thread, sends nothing
-            self._inbox_put((topic, msg, received, source), urgent=True)
-            self._wake()  # the loop stops the bridge and echoes now, not after its wait
-            return
-        self._inbox_put((topic, msg, received, source))
+        self._inbox_put((topic, msg, received, source), urgent=topic == "/deskarm/cmd/estop")
 
     def _inbox_put(self, item, urgent: bool = False) -> None:
         if len(self._inbox) >= INBOX_MAX and not urgent:

@@ -297,3 +297,28 @@ def test_servers_cut_command_floods_per_connection_in_zenoh():
     rules = {r["key_expr"]: r["freq"] for r in keys["downsampling"][0]["rules"]}
     assert rules["0/deskarm/cmd/goal/**"] == 200.0 and keys["downsampling"][0]["flows"] == ["ingress"]
     assert "downsampling" not in LinkOptions(connect=("tcp/127.0.0.1:7447",)).config_keys()  # clients do not
+
+
+def test_a_stop_holds_even_when_its_source_is_over_its_rate(tmp_path):
+    """The e-stop flag is set before the rate limiter looks: a flood from the same source never
+    drops a STOP (its echo may be counted as dropped)."""
+    from core.remote.server import DeskServer, ServerOptions
+    from core.session import DeskSession, SessionOptions
+
+    class Sample:
+        def __init__(self, payload: bytes):
+            self.payload = type("P", (), {"to_bytes": lambda _self: payload})()
+            self.attachment = None
+
+    session = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
+    try:
+        server = DeskServer(session, ServerOptions(rate_hz={"/deskarm/cmd/estop": 1.0}))
+        on_estop = server._callback("/deskarm/cmd/estop", "std_msgs/msg/Bool")
+        false = ros.serialize(ros.bool_msg(False), "std_msgs/msg/Bool")
+        for _ in range(50):  # the source's bucket is empty after these
+            on_estop(Sample(false))
+        assert session.controller.armed and server.stats.dropped > 0
+        on_estop(Sample(ros.serialize(ros.bool_msg(True), "std_msgs/msg/Bool")))
+        assert not session.controller.armed, "a STOP over the source's rate was dropped"
+    finally:
+        session.close()
