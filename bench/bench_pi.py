@@ -68,8 +68,14 @@ CASES: dict[str, list[str]] = {
     "desk": ["--camera", "sim", "--scenario", "objects", "--detector", "desk"],
     "assist": ["--assist"],
 }
+# not in the default run (it stays under 3 minutes): --cases hsv-roi,desk-roi or --full
+EXTRA_CASES: dict[str, list[str]] = {
+    "hsv-roi": [*CASES["hsv"], "--object-roi"],  # detect around the tracked objects between full searches
+    "desk-roi": [*CASES["desk"], "--object-roi"],
+}
+ALL_CASES = {**CASES, **EXTRA_CASES}
 WINDOW_SIZE = "800x480"
-GOALS = {"markers": 30.0, "hsv": 15.0, "desk": 15.0}  # fps wanted in the Pi 4 budget (issue 28)
+GOALS = {"markers": 30.0, "hsv": 15.0, "desk": 15.0, "hsv-roi": 15.0, "desk-roi": 15.0}  # fps wanted in the Pi 4 budget (issue 28)
 FIRST_FRAME_GOAL_S = 5.0
 SPAWN_ENV = "DESKARM_BENCH_SPAWN_T"  # the parent's time.time() just before the spawn
 POLL_MS = 5
@@ -126,7 +132,7 @@ def measure_window(case: str, budget: Optional[float], seconds: float, root: Pat
     """One window child of ``case`` in a group of ``budget`` cores (None: no quota); its JSON."""
     from bench.cpu_quota import CpuQuota  # the parent's (the child imports deskarm from root)
 
-    argv = [sys.executable, str(SCRIPT), "--child", "window", "--seconds", f"{seconds:g}", "--", *CASES[case]]
+    argv = [sys.executable, str(SCRIPT), "--child", "window", "--seconds", f"{seconds:g}", "--", *ALL_CASES[case]]
     with CpuQuota(budget, f"{case}-window") as quota:
         run = _run(argv, quota, root, FIRST_FRAME_TIMEOUT_S + WARMUP_S + 3 * seconds + 60)
         stats = quota.stats()
@@ -146,7 +152,7 @@ def measure_headless(case: str, budget: Optional[float], seconds: float, root: P
     with the group's throttling counters and the child's wall seconds (start-up included) added."""
     from bench.cpu_quota import CpuQuota
 
-    argv = [sys.executable, "-m", "app.cli", "--headless", "--json", "--duration", f"{seconds:g}", *CASES[case]]
+    argv = [sys.executable, "-m", "app.cli", "--headless", "--json", "--duration", f"{seconds:g}", *ALL_CASES[case]]
     with CpuQuota(budget, f"{case}-headless") as quota:
         run = _run(argv, quota, root, 3 * seconds + 180)
         stats = quota.stats()
@@ -166,7 +172,7 @@ def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None)
         raise RuntimeError(f"pi budget bench unavailable: {why}")
     window_s, headless_s = durations(quick)
     out = []
-    for case in cases or CASES:
+    for case in cases or (ALL_CASES if not quick else CASES):
         for name, fraction in budgets or PI_BUDGETS:
             w = measure_window(case, fraction, window_s, root)
             h = None if case == "assist" else measure_headless(case, fraction, headless_s, root)
@@ -220,10 +226,18 @@ def results_to_rows(results: list[dict]) -> list[dict]:
     return rows
 
 
+def cpu_ms_per_frame(w: dict) -> float:
+    """The window process's CPU time per loop frame (ms of this machine's core): what a frame costs,
+    whatever the rate; a budget of b cores can hold at most b · 1000 / this frames per second."""
+    per = [10.0 * c / f for c, f in zip(w["cpu_pct"], w["loop_fps"]) if f > 0]
+    return _med(per)
+
+
 def pi_table(results: list[dict]) -> str:
-    """The compact table for the issue and the README: one line per case and budget."""
+    """The compact table for the issue and the README: one line per case and budget (``ms/frame``:
+    ``cpu_ms_per_frame``)."""
     head = (f"{'case':8s} {'budget':12s} {'loop fps':>8s} {'drawn':>6s} {'lat p50/p95 ms':>15s} {'CPU %':>6s} "
-            f"{'1st frame s':>11s} {'headless fps':>12s} {'lat p50/p95 ms':>15s}  goal (Pi 4)")
+            f"{'ms/frame':>8s} {'1st frame s':>11s} {'headless fps':>12s} {'lat p50/p95 ms':>15s}  goal (Pi 4)")
     lines = [head, "-" * len(head)]
     for r in results:
         w, h, case = r["window"], r["headless"], r["case"]
@@ -238,7 +252,8 @@ def pi_table(results: list[dict]) -> str:
             goal = (("" if fps_goal is None else f"{fps_goal:g} fps {'met' if ok_fps else 'MISSED'}, ")
                     + f"first frame ≤ {FIRST_FRAME_GOAL_S:g} s {'met' if ok_start else 'MISSED'}")
         lines.append(f"{case:8s} {r['budget']:12s} {_med(w['loop_fps']):8.1f} {_med(w['drawn_fps']):6.1f} "
-                     f"{lat:>15s} {_med(w['cpu_pct']):6.0f} {w['first_frame_s']:11.2f} {hfps:>12s} {hlat:>15s}  {goal}")
+                     f"{lat:>15s} {_med(w['cpu_pct']):6.0f} {cpu_ms_per_frame(w):8.1f} {w['first_frame_s']:11.2f} "
+                     f"{hfps:>12s} {hlat:>15s}  {goal}")
     return "\n".join(lines)
 
 

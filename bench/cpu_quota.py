@@ -24,7 +24,7 @@ from typing import Optional, Sequence
 CPU_ROOT = Path("/sys/fs/cgroup/cpu")
 PERIOD_US = 10_000  # CFS period: see the module docstring
 MIN_QUOTA_US = 1_000  # the kernel refuses a quota below 1 ms
-DEFAULT_SHARES = 4096  # four busy tasks' weight: a budget is obtained on a loaded host
+DEFAULT_SHARES = 8192  # eight busy tasks' weight: a budget is obtained on a loaded host
 GROUP_PREFIX = "deskarm-bench-"
 
 
