@@ -67,6 +67,7 @@ DESK_MAX_TEXTURE_PX = 2048
 WALL_COLOUR = (150, 155, 158)  # above the horizon (only with rigs that look that far up)
 
 SUPERSAMPLE = 4  # marker patches are warped at 4× and area-averaged (anti-aliased edges)
+MARKER_PATCH_CACHE = 32  # warped marker patches kept for markers that lie still (SimDesk._composite_marker)
 MARKER_PX_PER_CELL = 16  # marker texture resolution (8 cells + white border → 160 px wide)
 MARKER_BORDER_CELLS = 1.0  # white quiet zone around the black border, in marker cells
 MARKER_BLACK = 28  # printed black and paper white, 8-bit levels before the camera LUT
@@ -557,6 +558,7 @@ class SimDesk:
         for i in ids:
             self._textures[(i, False)] = marker_texture(self._dictionary, i)
             self._textures[(i, True)] = marker_texture(self._dictionary, i, label_r / (self._paper_m / 2))
+        self._marker_patches: dict = {}  # (id, disc, image shape, H, outline) -> warped patch: _composite_marker
         self.tool_marker = None  # (marker_id, offset_m, size_m) of the plate the arm carries
         self.set_tool_marker(tool_marker)
         self._settings = CameraSettings()
@@ -581,6 +583,7 @@ class SimDesk:
         if not 0.01 <= size <= 0.2 or len(offset) != 3 or not all(map(math.isfinite, offset)):
             raise ValueError(f"tool marker size {size} m / offset {offset}: need 0.01…0.2 m and 3 finite numbers")
         self._textures[(marker_id, False)] = marker_texture(self._dictionary, marker_id)
+        self._marker_patches.clear()  # patches are keyed by marker id: none may outlive its texture
         self.tool_marker = (marker_id, offset, size)
 
     def tool_marker_centre(self, arm_points) -> Optional[np.ndarray]:
@@ -1291,29 +1294,53 @@ class SimDesk:
     # -- drawing -----------------------------------------------------------------------------
 
     def _composite_marker(self, img: np.ndarray, marker: tuple) -> None:
+        """A marker's paper over ``img``. Its warped patch is kept while its homography and outline
+        stay the same to the bit (a marker lying still before a still camera): the warp at 4× was
+        most of a still desk's drawing time, the blend that remains is a few small 8-bit ops."""
         marker_id, H, paper_px, disc = marker
-        self._composite(img, self._textures[(marker_id, disc)], H, paper_px, SUPERSAMPLE)
+        key = (marker_id, disc, img.shape, np.asarray(H, np.float64).tobytes(), np.asarray(paper_px, np.float64).tobytes())
+        cache = self._marker_patches
+        patch = cache.get(key)
+        if patch is None:
+            patch = self._warp_patch(img.shape, self._textures[(marker_id, disc)], H, paper_px, SUPERSAMPLE)
+            if len(cache) >= MARKER_PATCH_CACHE:
+                cache.clear()  # markers that moved: their old patches will not come back
+            cache[key] = patch
+        self._blend(img, patch)
 
     @staticmethod
     def _composite(img: np.ndarray, tex: np.ndarray, H: np.ndarray, paper_px: np.ndarray, S: int) -> None:
         """Paint premultiplied BGRA ``tex`` (texel → image px homography ``H``) over ``img`` inside
         the bounding box of ``paper_px``, warped at S× and area-averaged (anti-aliased edges)."""
-        h_img, w_img = img.shape[:2]
+        SimDesk._blend(img, SimDesk._warp_patch(img.shape, tex, H, paper_px, S))
+
+    @staticmethod
+    def _warp_patch(shape: tuple, tex: np.ndarray, H: np.ndarray, paper_px: np.ndarray, S: int) -> Optional[tuple]:
+        """``_composite``'s patch for an image of ``shape``: (x0, y0, premultiplied BGR, 1 − α as 3
+        channels), or None when it lies outside the image."""
+        h_img, w_img = shape[:2]
         x0, y0 = np.floor(paper_px.min(axis=0)).astype(int) - 1
         x1, y1 = np.ceil(paper_px.max(axis=0)).astype(int) + 2
         x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
         if x1 <= x0 or y1 <= y0:
-            return
+            return None
         # supersampled patch pixel (xs, ys) has its centre at image x0 - 0.5 + (xs + 0.5) / S
         to_patch = np.array([[S, 0.0, (0.5 - x0) * S - 0.5], [0.0, S, (0.5 - y0) * S - 0.5], [0.0, 0.0, 1.0]])
         sup = cv2.warpPerspective(tex, to_patch @ H, ((x1 - x0) * S, (y1 - y0) * S), flags=cv2.INTER_LINEAR,
                                   borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
         small = sup if S == 1 else cv2.resize(sup, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
-        # premultiplied "over": roi · (1 − α) + colour·α, in 8-bit ops (±1 level)
-        roi = img[y0:y1, x0:x1]
         keep = cv2.subtract(255, small[..., 3])
-        cv2.multiply(roi, cv2.merge([keep, keep, keep]), dst=roi, scale=1.0 / 255.0)
-        cv2.add(roi, np.ascontiguousarray(small[..., :3]), dst=roi)
+        return int(x0), int(y0), np.ascontiguousarray(small[..., :3]), cv2.merge([keep, keep, keep])
+
+    @staticmethod
+    def _blend(img: np.ndarray, patch: Optional[tuple]) -> None:
+        """Premultiplied "over" of a ``_warp_patch`` patch: roi · (1 − α) + colour·α, in 8-bit ops (±1 level)."""
+        if patch is None:
+            return
+        x0, y0, colour, keep3 = patch
+        roi = img[y0:y0 + colour.shape[0], x0:x0 + colour.shape[1]]
+        cv2.multiply(roi, keep3, dst=roi, scale=1.0 / 255.0)
+        cv2.add(roi, colour, dst=roi)
 
     def _draw_shadows(self, img: np.ndarray, view: _View, polys3: list) -> None:
         if not polys3:
