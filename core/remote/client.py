@@ -97,7 +97,7 @@ class DeskClient:
     def close(self) -> None:
         """Stop the heartbeat, give control back when this client holds it, close the session."""
         self.stop_heartbeat()
-        if self._zenoh is not None and self.in_control():
+        if self._zenoh is not None and (self.control or self.in_control()):  # granted, or maybe about to be
             for _ in range(3):  # a put just before the session closes can be lost: until the server confirms
                 before = self.count("/deskarm/session")
                 self.release_control()
@@ -162,6 +162,7 @@ class DeskClient:
     def release_control(self) -> None:
         """Give the arm back (another controller may claim it; the arm stays paused until one does)."""
         self.control = False
+        self._granted = False
         self._send("/deskarm/cmd/control", ros.json_msg({"release": self.client_id}))
 
     # ---- receiving ----------------------------------------------------------------------------

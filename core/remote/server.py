@@ -15,7 +15,9 @@ time and checks every payload (``core.remote.commands``). Commands (``/deskarm/c
   re-arm is never one message.
 - control (std_msgs/String JSON ``{"claim": ID}``, ``{"release": ID}``, ``{"claim": ID, "take":
   true}``): the arm's motion belongs to one client at a time; a claim while another holds it is
-  refused unless it says ``take`` (an explicit hand-over).
+  refused unless it says ``take`` (an explicit hand-over) or the holder has sent no heartbeat
+  for ``CONTROL_EXPIRE_S`` (its session is gone); the arm stays paused until the new holder's
+  own heartbeat arrives.
 - re-arm (std_msgs/Header, frame_id = the controlling client's id), held: sent at 10 Hz for
   ``REARM_HOLD_S`` without a gap, like the window's hold-to-re-arm.
 - goal (geometry_msgs/PointStamped in robot_base): manual mode, that target.
@@ -79,6 +81,7 @@ STATUS_PERIOD_S = 0.5  # /deskarm/session and /deskarm/estop at least this often
 TF_STATIC_PERIOD_S = 1.0  # /tf_static again for late joiners (Zenoh has no latched topics here)
 SETTINGS_KEYS = ("mode", "follow_id", "lissajous_running", "camera")
 REARM_HOLD_S = 1.0  # a remote re-arm: requests held this long (the window's hold is as long)
+CONTROL_EXPIRE_S = 10.0  # a controlling client silent this long (no heartbeat) is gone: another may claim
 INBOX_MAX = 512  # commands queued between two loop iterations at most (a flood beyond is dropped)
 # Python-side per-source rates (Hz): a second line behind Zenoh's downsampling (security.COMMAND_RATE_HZ)
 RATE_HZ = {"/deskarm/cmd/goal": 100.0, "/deskarm/cmd/settings": 20.0, "/deskarm/cmd/heartbeat": 25.0,
@@ -147,6 +150,7 @@ class DeskServer:
         self._last_heartbeat: Optional[float] = None  # monotonic s of the controlling client's latest heartbeat
         self._clients = cmds.Clients()
         self._holder: Optional[tuple[str, str]] = None  # (client id, source GID hex) in control
+        self._holder_seen = 0.0  # monotonic s of the holder's claim or latest heartbeat
         self._rearm = cmds.HoldTracker(cmds.Hold(hold_s=self.options.rearm_hold_s))
         self._limiter = cmds.RateLimiter(self.options.rate_hz if self.options.rate_hz is not None else RATE_HZ)
         self._limiter_lock = threading.Lock()
@@ -381,7 +385,7 @@ class DeskServer:
                 self._status_dirty = True
             holder = self._holder
             if holder is not None and (cid, source) == holder:
-                self._last_heartbeat = received
+                self._last_heartbeat = self._holder_seen = received
                 self.stats.heartbeats += 1
             else:
                 self.stats.ignored_heartbeats += 1
@@ -447,10 +451,14 @@ class DeskServer:
         action, cid, take = cmds.parse_control(text)
         holder = self._holder
         if action == "claim":
-            if holder is None or holder == (cid, source) or take:
+            gone = holder is not None and time.monotonic() - self._holder_seen > CONTROL_EXPIRE_S
+            if holder is None or holder == (cid, source) or take or gone:
                 if holder is not None and holder != (cid, source):
-                    self.status(f"deskarm serve: control handed over from {holder[0]} to {cid}")
+                    how = "silent for more than %g s" % CONTROL_EXPIRE_S if gone and not take else "handed over"
+                    self.status(f"deskarm serve: control of {holder[0]} {how}: {cid} has it now "
+                                "(the arm stays paused until its heartbeat)")
                 self._holder = (cid, source)
+                self._holder_seen = time.monotonic()
                 self._rearm.reset()
             else:
                 raise cmds.Refused(f"control claimed by {cid}: {holder[0]} is in control "
