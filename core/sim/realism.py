@@ -88,7 +88,10 @@ def preset_named(name: Union[str, RealismPreset, None]) -> Optional[RealismPrese
 # -- the image model -----------------------------------------------------------------------------
 
 _MAPS: dict = {}  # (w, h, k1) -> (map_x, map_y) of the distortion (float32)
-_VIGNETTES: dict = {}  # (w, h, strength) -> gain (float32, h x w x 1)
+_VIGNETTES: dict = {}  # (w, h, channels, strength) -> gain (float32, h x w x channels)
+_NOISE: dict = {}  # (h, w, channels, chroma) -> unit noise field (float32), NOISE_SHIFTS larger each way
+_SIGMAS: dict = {}  # (read, shot) -> σ by grey level (float32 LUT of 256)
+NOISE_SHIFTS = 64  # a frame's noise is a window of a larger field at one of 64 x 64 offsets
 
 
 def _radius2(w: int, h: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -129,13 +132,40 @@ def distort_points(points, size: tuple[int, int], preset: RealismPreset = WEBCAM
     return out + (cx, cy)
 
 
-def _vignette(w: int, h: int, strength: float) -> np.ndarray:
-    key = (w, h, strength)
+def _vignette(w: int, h: int, channels: int, strength: float) -> np.ndarray:
+    key = (w, h, channels, strength)
     if key not in _VIGNETTES:
         _, _, r2 = _radius2(w, h)
+        gain = (1.0 - strength * r2).astype(np.float32)
         _VIGNETTES.clear()
-        _VIGNETTES[key] = (1.0 - strength * r2).astype(np.float32)[:, :, None]
+        _VIGNETTES[key] = cv2.merge([gain] * channels) if channels > 1 else gain
     return _VIGNETTES[key]
+
+
+def _noise_field(h: int, w: int, channels: int, chroma: float) -> np.ndarray:
+    """Unit-σ noise, NOISE_SHIFTS larger than the image each way: a share ``chroma`` differs
+    between the channels, the rest is common to them (luma); drawn once per size (seeded)."""
+    key = (h, w, channels, chroma)
+    if key not in _NOISE:
+        rng = np.random.default_rng([h, w, channels, 2027])
+        shape = (h + NOISE_SHIFTS, w + NOISE_SHIFTS)
+        luma = rng.standard_normal(shape, dtype=np.float32)
+        if channels > 1:
+            field = (math.sqrt(1.0 - chroma * chroma) * luma[:, :, None]
+                     + chroma * rng.standard_normal(shape + (channels,), dtype=np.float32))
+        else:
+            field = luma
+        _NOISE.clear()
+        _NOISE[key] = np.ascontiguousarray(field, dtype=np.float32)
+    return _NOISE[key]
+
+
+def _sigma_lut(read: float, shot: float) -> np.ndarray:
+    """σ of the sensor noise at each grey level: read noise and shot noise (σ² = read² + shot·level)."""
+    key = (read, shot)
+    if key not in _SIGMAS:
+        _SIGMAS[key] = np.sqrt(read * read + shot * np.arange(256, dtype=np.float32)).astype(np.float32)
+    return _SIGMAS[key]
 
 
 def _motion_kernel(length: float, angle: float) -> Optional[np.ndarray]:
@@ -180,19 +210,15 @@ def _one_image(img: np.ndarray, draws: dict, rng: np.random.Generator, preset: R
         out = cv2.GaussianBlur(out, (0, 0), draws["defocus"] * scale)
     if draws["motion"] is not None:
         out = cv2.filter2D(out, -1, draws["motion"], borderType=cv2.BORDER_REFLECT)
-    # exposure (flicker) and vignetting, then the sensor's noise on the light it got
-    f = out.astype(np.float32) * (_vignette(w, h, preset.vignetting) * np.float32(draws["gain"]))
-    np.clip(f, 0.0, 255.0, out=f)
-    sigma = np.sqrt(np.float32(preset.read_noise ** 2) + np.float32(preset.shot_noise) * f)
-    luma = rng.standard_normal((h, w, 1), dtype=np.float32)
-    if f.ndim == 3 and f.shape[2] > 1 and preset.chroma_noise > 0:
-        chroma = rng.standard_normal(f.shape, dtype=np.float32)
-        c = np.float32(preset.chroma_noise)
-        noise = np.sqrt(np.float32(1.0) - c * c) * luma + c * chroma
-    else:
-        noise = luma if f.ndim == 3 else luma[:, :, 0]
-    f += sigma * noise
-    out = np.clip(f + 0.5, 0.0, 255.0).astype(np.uint8)
+    # exposure (flicker) and vignetting, then the sensor's noise on the light it got: σ by grey
+    # level (a LUT), times a window of a unit noise field at a random offset (no per-frame randn)
+    channels = 1 if out.ndim == 2 else out.shape[2]
+    lit = cv2.multiply(out, _vignette(w, h, channels, preset.vignetting), scale=draws["gain"], dtype=cv2.CV_8U)
+    sigma = cv2.LUT(lit, _sigma_lut(preset.read_noise, preset.shot_noise))
+    field = _noise_field(h, w, channels, preset.chroma_noise)
+    dy, dx = (int(v) for v in rng.integers(0, NOISE_SHIFTS, size=2))
+    noise = cv2.multiply(sigma, field[dy:dy + h, dx:dx + w])
+    out = cv2.add(lit, noise, dtype=cv2.CV_8U)
     quality = int(rng.integers(preset.jpeg_quality[0], preset.jpeg_quality[1] + 1))
     if quality < 100:
         ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, quality])
