@@ -69,6 +69,8 @@ mount_in sysfs sys "$ROOT/sys"
 mount_in bind /dev "$ROOT/dev"
 mount_in devpts devpts "$ROOT/dev/pts"
 cp -L /etc/resolv.conf "$ROOT/etc/resolv.conf"
+# trust what this machine trusts (a proxy's own CA included), for pip and uv inside
+cp -L /etc/ssl/certs/ca-certificates.crt "$ROOT/etc/ssl/certs/ca-certificates.crt"
 
 say "copying deskarm's committed tree ($(git -C "$REPO" rev-parse --short HEAD))"
 rm -rf "$ROOT/home/deskarm"
@@ -77,7 +79,8 @@ git -C "$REPO" archive HEAD | tar -x -C "$ROOT/home/deskarm"
 
 in_root() {
     chroot "$ROOT" /usr/bin/env -i HOME=/root PATH=/usr/local/bin:/usr/bin:/bin LANG=C.UTF-8 \
-        SSL_CERT_FILE=/etc/ssl/certs/ca-certificates.crt QEMU_CPU="$QEMU_CPU" /bin/bash -c "cd /home/deskarm && $1"
+        SSL_CERT_FILE=/etc/ssl/certs/ca-certificates.crt PIP_CERT=/etc/ssl/certs/ca-certificates.crt \
+        REQUESTS_CA_BUNDLE=/etc/ssl/certs/ca-certificates.crt PIP_DEFAULT_TIMEOUT=180 QEMU_CPU="$QEMU_CPU" /bin/bash -c "cd /home/deskarm && $1"
 }
 say "system: $(in_root 'uname -m; ldd --version | head -1; python3 --version' | tr '\n' ' ')"
 t0=$(date +%s)
