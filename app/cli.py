@@ -56,6 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--remote", default=None, metavar="ENDPOINT",
                    help="open the window (or headless run) on a desk served by `deskarm serve` on another "
                         "machine, e.g. tcp/192.168.1.20:7447")
+    p.add_argument("--credentials", default=None, metavar="FILE",
+                   help="with --remote: the credential `deskarm serve --pair` made on the serving machine "
+                        "(controller.toml drives, viewer.toml watches and may STOP); default: the config "
+                        "folder's remote/client.toml")
     p.add_argument("--detector", default=None, metavar="NAME[,NAME…]",
                    help="also locate marker-less objects in 3D with these detectors (e.g. hsv, circles, "
                         "onnx:PATH; the headless JSON then scores them against the simulated desk's truth); "
@@ -290,7 +294,7 @@ def _main(argv: list[str] | None) -> int:
         camera=args.camera, bridge=args.bridge, robot=args.robot, scenario=args.scenario,
         fps=args.fps, simulated_clock=bool(args.headless and args.fast), calibration=args.calibration,
         event_driven=not args.tick_driven, rig_offset=rig_offset, hand_eye=args.hand_eye,
-        markers=args.markers, remote=args.remote, sim_skew_ms=args.sim_skew_ms, sim_realism=args.sim_realism,
+        markers=args.markers, remote=args.remote, remote_credentials=args.credentials or "", sim_skew_ms=args.sim_skew_ms, sim_realism=args.sim_realism,
         detectors=detectors,
         follow_object=args.follow_object, object_intercept=not args.no_intercept,
         compensate_skew=not args.no_skew_compensation, object_roi_search=args.object_roi,

@@ -58,6 +58,7 @@ class SessionOptions:
     # a desk served by `deskarm serve` on another machine (Zenoh endpoint, e.g. tcp/192.168.1.20:7447):
     # its cameras and arm replace --camera and --bridge
     remote: Optional[str] = None
+    remote_credentials: str = ""  # --credentials FILE for --remote ("": the config folder's remote/client.toml)
     # simulated desk only: the right view is captured this much later than the left (ms, 0…100)
     sim_skew_ms: float = 0.0
     # simulated desk only: a realism preset (core.sim.realism, e.g. "webcam") applied to every render
@@ -137,6 +138,8 @@ class SessionOptions:
             check_endpoint(self.remote)  # ValueError with an example
             if self.simulated_clock:
                 raise ValueError("--remote runs at the served desk's pace: it cannot run on a simulated clock (--fast)")
+        if self.remote_credentials and not self.remote:
+            raise ValueError("--credentials belongs to --remote ENDPOINT (the desk another machine serves)")
 
 
 @dataclass
@@ -174,7 +177,12 @@ class DeskSession:
         if options.remote:  # another machine's cameras and arm; never the simulated desk instead
             from core.remote.desk import open_remote_desk
 
-            camera, remote_bridge = open_remote_desk(options.remote, profile, clock=clock)
+            credential = None
+            if options.remote_credentials:
+                from core.remote.security import load_credential
+
+                credential = load_credential(options.remote_credentials)  # CredentialError names the file
+            camera, remote_bridge = open_remote_desk(options.remote, profile, clock=clock, credential=credential)
             banner = f"REMOTE — {options.remote}"
         else:
             camera, banner = open_camera(options.camera, scenario=options.scenario, clock=clock, fps=options.fps,

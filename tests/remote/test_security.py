@@ -348,3 +348,21 @@ def test_pair_cli_prints_what_the_other_machine_needs(tmp_path, capsys, monkeypa
     assert "deskarm serve --network --tls" in out and "tls/192.168.1.20:7447" in out
     assert stat.S_IMODE(folder.stat().st_mode) == 0o700
 
+
+
+def test_a_session_takes_the_credential_file_given_with_credentials(desk, tmp_path):
+    from core.remote.security import CredentialError
+    from core.session import DeskSession, SessionOptions
+
+    with pytest.raises(ValueError, match="--credentials belongs to --remote"):
+        SessionOptions(camera="sim", remote_credentials=str(desk.creds["files"]["viewer"])).validate()
+    broken = tmp_path / "viewer.toml"
+    broken.write_text("not = [toml")
+    with pytest.raises(CredentialError):
+        DeskSession.create(SessionOptions(camera="sim", remote=desk.endpoint, remote_credentials=str(broken)))
+    session = DeskSession.create(SessionOptions(camera="sim", remote=desk.endpoint,
+                                                remote_credentials=str(desk.creds["files"]["viewer"])))
+    try:
+        assert getattr(session.camera, "kind", "") == "remote" and session.calibration is not None
+    finally:
+        session.close()
