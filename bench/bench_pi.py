@@ -165,11 +165,11 @@ def measure_headless(case: str, budget: Optional[float], seconds: float, root: P
 def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None) -> list[dict]:
     """Every (case, budget) pair: one dict with ``case``, ``budget``, ``fraction``, ``window`` and
     ``headless`` (None for the assistive view). Budgets interleave within a case (same run, same load)."""
-    from bench.cpu_quota import available
+    from bench.cpu_quota import CpuQuotaUnavailable, available
 
     why = available()
     if why:
-        raise RuntimeError(f"pi budget bench unavailable: {why}")
+        raise CpuQuotaUnavailable(f"pi budget bench unavailable: {why}")
     window_s, headless_s = durations(quick)
     out = []
     for case in cases or (ALL_CASES if not quick else CASES):
@@ -258,7 +258,8 @@ def pi_table(results: list[dict]) -> str:
 
 
 def rows(quick: bool = False, root: Path = REPO) -> list[dict]:
-    """``make bench``'s rows; raises RuntimeError when no CPU quota can be made (see cpu_quota.available)."""
+    """``make bench``'s rows; raises cpu_quota.CpuQuotaUnavailable (an ImportError) when no CPU quota
+    group can be made here (see cpu_quota.available), RuntimeError when a child fails."""
     return results_to_rows(measure_all(quick, root))
 
 

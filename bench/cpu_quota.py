@@ -32,6 +32,11 @@ class CpuQuotaError(RuntimeError):
     """The cgroup could not be made or written (not root, no cgroup v1 ``cpu`` controller)."""
 
 
+class CpuQuotaUnavailable(ImportError):
+    """This machine cannot make a CPU quota group (see ``available``). An ImportError so that
+    ``make bench`` skips a bench needing one as it skips a missing extra (bench/__main__ OPTIONAL)."""
+
+
 def available(root: Path = CPU_ROOT) -> str:
     """"" when a quota group can be made under ``root``, else why not (one line)."""
     if not (root / "cpu.cfs_quota_us").is_file():

@@ -100,3 +100,13 @@ def test_the_assistive_view_child_reports_its_hand_camera_frames():
     assert w["kind"] == "assist" and w["first_frame_s"] > 0
     assert w["loop_fps"][0] > 0 and w["latency_ms"] == []
     assert w["throttled"]["nr_periods"] > 0
+
+
+def test_a_machine_without_a_cpu_controller_skips_the_bench_like_a_missing_extra(monkeypatch, tmp_path):
+    monkeypatch.setattr(cpu_quota, "CPU_ROOT", tmp_path)  # an empty folder: no cpu.cfs_quota_us
+    monkeypatch.setattr(cpu_quota.available, "__defaults__", (tmp_path,))
+    assert "cpu.cfs_quota_us is missing" in cpu_quota.available()
+    with pytest.raises(ImportError, match="pi budget bench unavailable"):  # make bench's OPTIONAL rule
+        bench_pi.rows(quick=True)
+    with pytest.raises(cpu_quota.CpuQuotaError):
+        cpu_quota.CpuQuota(0.5, root=tmp_path)
