@@ -29,6 +29,7 @@ from app.features.markers import MarkersFeature
 from app.features.objects import NO_DETECTOR_HINT, ObjectsFeature
 from app.features.robot import RobotFeature
 from app.features.recording import RecordingFeature, show_play_again  # noqa: F401 (re-exported)
+from app.features.rtx import RtxFeature
 from app.features.status import StatusFeature
 from app.features.stereo import StereoFeature
 from app.features.target import TargetFeature
@@ -48,6 +49,7 @@ from app.window_frame import (  # noqa: F401 (re-exported: tests and app.cli imp
     fit_to_screen,
     menu_button,
     stop_strip,
+    show_tab_of,
     timer,
     touch_tab_widget,
     two_panes,
@@ -135,8 +137,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.stereo.load_initial_preset()
         self.stereo.update_legend()
         self.splitter.splitterMoved.connect(self._mark_dirty)  # view width: compact marker labels
-        # settings remembered between runs (mode, Lissajous, camera controls, bridge port, 3D,
-        # geometry); restored as user actions would set them, the bridge is never connected
+        # settings remembered between runs, restored as user actions would set them (no bridge connects)
         self.preferences = WindowPreferences(self)
         self.help = HelpFeature(session, self.preferences, self)
         self.help.sigNote.connect(self.status.show_note)
@@ -149,13 +150,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     @property
     def redraw_only_changes(self) -> bool:
-        """True (the default): redraw only what changed.
-
-        False is the window as it was before: every worker message marks it dirty, the redraw
-        timer re-arms after each draw, every draw sets every image, overlay and plot item
-        (``redraw_unchanged`` on the views and twins) and the status bar each frame. It is
-        kept as the baseline of ``bench/bench_window.py``.
-        """
+        """True (the default): redraw only what changed. False: every message redraws every image,
+        overlay, plot item and the status bar (the baseline of ``bench/bench_window.py``)."""
         return self._only_changes
 
     @redraw_only_changes.setter
@@ -224,6 +220,8 @@ class MainWindow(QtWidgets.QMainWindow):
                   (self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (self.robot.page, "Robot")]
         self.tabs = touch_tab_widget(pages)
         self.tabs.currentChanged.connect(self._mark_dirty)  # a table that only updates while shown: at once
+        if self.rtx.needs_init:  # the arm moves only after its initialisation: show where to start it
+            show_tab_of(self.tabs, self.robot.page)
         self.splitter = two_panes(left, self.tabs)
         outer.addWidget(self.splitter, 1)
         self.setCentralWidget(central)
@@ -255,6 +253,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.robot = RobotFeature(s, w.bridge, self)
         self.robot.hand_eye_button.clicked.connect(self.calibration.open_hand_eye)
         self.robot.view_3d_button.toggled.connect(self.on_view_3d)
+        self.rtx = RtxFeature(s, self)  # a UMI-RTX's encoder initialisation (no page for other arms)
+        self.robot.add_panel(self.rtx.page)
         self.sgbm_panel = self.stereo.stereo_panel.sgbm  # the block-matching trackbars
         for feature in (self.recording, self.target, self.objects, self.markers, self.teleop, self.jog,
                         self.calibration):
@@ -307,6 +307,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._status_timer.stop()
         self.calibration.close()  # stops and joins the wizards' workers
         self.recording.stop()
+        self.rtx.stop()  # cancels and joins an RTX initialisation
         self.estop_switches.stop()  # its key filter goes, its device threads are joined
         self.workers.stop()
 
@@ -500,6 +501,7 @@ class MainWindow(QtWidgets.QMainWindow):
         view of the state (STOP, RE-ARM, banner, status bar, open dialogs) follows."""
         if engaged:
             self.jog.stop()  # nothing jogs on after a STOP (nor when re-armed)
+            self.rtx.estop()  # an RTX initialisation under way ends (every motor stopped)
         self.estop.set_engaged(engaged)
         self.recording.estop(engaged)
         self.status.restore()
@@ -596,6 +598,7 @@ class MainWindow(QtWidgets.QMainWindow):
             for view in (self.view_left, self.view_right):
                 view.set_fps(fps)
         self.robot.show_bridge_status(self._bridge_status)
+        self.rtx.poll()
         self.status.refresh(fps, self._latency_ms, self._bridge_status)
 
 

@@ -146,6 +146,14 @@ def touch_tab_widget(pages) -> QtWidgets.QTabWidget:
     return tabs
 
 
+def show_tab_of(tabs: QtWidgets.QTabWidget, page: QtWidgets.QWidget) -> None:
+    """Open the tab holding ``page`` (inside its scroll area)."""
+    for index in range(tabs.count()):
+        if tabs.widget(index).isAncestorOf(page):
+            tabs.setCurrentIndex(index)
+            return
+
+
 def two_panes(left: QtWidgets.QWidget, right: QtWidgets.QWidget) -> QtWidgets.QSplitter:
     """Views left (3 parts) and tabs right (2 parts), split by a handle wide enough to drag with a
     finger; neither side collapses."""

@@ -48,6 +48,11 @@ class RobotFeature(QtCore.QObject):
         layout.addWidget(self.bridge_picker)
         layout.addStretch(1)
 
+    def add_panel(self, panel: Optional[QtWidgets.QWidget]) -> None:
+        """Another feature's panel at the top of the Robot tab (None: nothing), e.g. the RTX's."""
+        if panel is not None:
+            self.page.layout().insertWidget(0, panel)
+
     @QtCore.Slot(str)
     def on_bridge_requested(self, url: str) -> None:
         self.bridge_picker.set_status(f"connecting to {url} …", None)  # neutral until it answers
