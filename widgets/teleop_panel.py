@@ -12,6 +12,7 @@ from typing import Optional, Sequence
 from PySide6 import QtCore, QtWidgets
 
 from core.motion.teleop import CALIBRATING, ENDED, FOLLOWING, HOLDING, REACH_TOL_M, Box
+from core.motion.teleop_choice import KEYBOARD_SOURCE
 from widgets._style import (
     ERROR_COLOUR,
     OK_COLOUR,
@@ -24,7 +25,6 @@ from widgets._style import (
 from widgets.file_dialog import open_file_dialog
 
 M_TO_CM = 100.0
-KEYBOARD_SOURCE = "keyboard"  # the jog keys as a teleop source (core.motion.jog.JogTeleopSource)
 POSE_SOURCE = "pose:"  # a body pose model file (ONNX), "pose:PATH"
 BOX_LIMIT_CM = 60.0  # the box spin boxes' range (±, and 0 … this for z): reach is checked on top
 MIN_TARGET_BOX_M = 0.01  # a target box thinner than this along an axis is refused (nothing to map into)

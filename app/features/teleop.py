@@ -134,11 +134,7 @@ class TeleopFeature(QtCore.QObject):
             self.teleop_panel.refuse_target_box(problem)
             return
         self.teleop_panel.show_target_box(box)
-        controller = self.session.targeter.teleop
-        if hasattr(controller, "set_target_box"):
-            # the control worker calls the controller under the targeter's lock: change it under it too
-            with self.session.targeter._lock:
-                controller.set_target_box(box)
+        self.session.targeter.set_teleop_target_box(box)
         self.sigChanged.emit()
 
     def draw(self, twin):

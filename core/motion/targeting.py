@@ -637,6 +637,15 @@ class Targeter:
         with self._lock:
             return None if self.teleop is None else self.teleop.status()
 
+    def set_teleop_target_box(self, box) -> bool:
+        """Give the teleop controller a new target box, under the lock the control worker calls it
+        under; False when there is no controller or it has no box (the keyboard)."""
+        with self._lock:
+            if not hasattr(self.teleop, "set_target_box"):
+                return False
+            self.teleop.set_target_box(box)
+            return True
+
     @_user_input
     def restart_teleop(self) -> None:
         """Teleop back to calibrating (after the end gesture, or to calibrate again)."""
