@@ -7,14 +7,30 @@ from pathlib import Path
 import pytest
 
 # Without PySide6 (a system with no wheel for its glibc, e.g. Raspberry Pi OS Bookworm: deskarm
-# installs there without the window) the Qt tests cannot run: collect only the rest. The
-# Makefile then runs pytest with -p no:pytestqt.
+# installs there without the window) the Qt tests cannot run: a test file that imports Qt, the
+# widgets or the window's modules, or asks for qtbot, is not collected. The Makefile then runs
+# pytest with -p no:pytestqt.
 import importlib.util as _importlib_util
+import re as _re
 
-if _importlib_util.find_spec("PySide6") is None:
-    collect_ignore_glob = ["window/*", "window/*/*", "test_bench_*.py", "remote/test_remote_window.py",
-                           "record/test_replay_end_window.py", "e2e/test_screenshot_size.py",
-                           "e2e/test_calibration_wizard_advice.py", "e2e/test_bench_table.py"]
+_HAS_QT = _importlib_util.find_spec("PySide6") is not None
+_NEEDS_QT = _re.compile(r"^\s*(from|import) (PySide6|pyqtgraph|superqt|widgets|app\.(gui|features|assist|workers|"
+                        r"assist_window|rtx_init_worker|calibration_worker|startup|hand_eye|preferences|estop_switches))\b|"
+                        r"\bqtbot\b|^\s*import bench\b|^\s*from bench\b", _re.MULTILINE)
+
+
+def pytest_ignore_collect(collection_path, config):
+    if _HAS_QT:
+        return None
+    if collection_path.is_dir():
+        return True if collection_path.name == "window" else None  # the widget and window tests
+    if collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
+        return None
+    try:
+        return bool(_NEEDS_QT.search(collection_path.read_text(encoding="utf-8", errors="replace"))) or None
+    except OSError:
+        return None
+
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
