@@ -134,8 +134,7 @@ class MainWindow(QtWidgets.QMainWindow):
                              (w.perception.sigHealth, self.status.set_health), (w.control.sigCommand, self.on_command),
                              (w.bridge.sigState, self.on_state), (w.bridge.sigStatus, self.on_bridge_status)):
             signal.connect(slot)
-        self.stereo.load_initial_preset()
-        self.stereo.update_legend()
+        self.stereo.show_initial_preset()
         self.splitter.splitterMoved.connect(self._mark_dirty)  # view width: compact marker labels
         # settings remembered between runs, restored as user actions would set them (no bridge connects)
         self.preferences = WindowPreferences(self)
@@ -240,6 +239,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recording = RecordingFeature(s, self)
         self.target = TargetFeature(s, self._twins, self)
         self.objects = ObjectsFeature(s, w.perception, self.target_panel, lambda: self._result, self)
+        self.objects.attach_views((self.view_left, self.view_right))  # unsure objects drawn grey
         self.markers = MarkersFeature(s, self.target_panel, self._set_mode, lambda: self._result,
                                       lambda: self._state, self)
         self.teleop = TeleopFeature(s, self.target_panel.teleop, self._set_mode, lambda: self._command,

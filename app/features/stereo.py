@@ -62,6 +62,11 @@ class StereoFeature(QtCore.QObject):
         self.perception.set_disparity_enabled(wanted)
 
     # --- presets (per camera pair, in the user's config folder) --------------------------------
+    def show_initial_preset(self) -> None:
+        """The preset the session starts with, and the depth legend for it."""
+        self.load_initial_preset()
+        self.update_legend()
+
     def load_initial_preset(self) -> None:
         """The pair's active preset, if it has one, into the panel and the worker."""
         pair = self.session.camera.pair_id
