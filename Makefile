@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup run test bench bench-full firmware-test clean install-desktop check-arm64
+.PHONY: setup run test bench bench-full bench-pi firmware-test clean install-desktop check-arm64
 
 setup: $(STAMP)
 
@@ -56,6 +56,11 @@ bench: $(VENV)/.bench-installed
 
 bench-full: $(VENV)/.bench-installed
 	QT_QPA_PLATFORM=offscreen $(PY) -m bench --full
+
+# the loop, the 800x480 window and the assistive view held to one Raspberry Pi 4 / Pi 5 core's CPU
+# time (a cgroup v1 CPU quota: needs root), beside the unthrottled figures of the same run
+bench-pi: $(VENV)/.bench-installed
+	QT_QPA_PLATFORM=offscreen $(PY) -m bench --pi
 
 clean:
 	rm -rf $(VENV) build *.egg-info

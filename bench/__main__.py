@@ -77,6 +77,10 @@ def format_table(rows: list[dict]) -> str:
 def main() -> int:
     import os
 
+    if "--pi" in sys.argv:  # python -m bench --pi (make bench-pi): the Pi budget table only (bench/bench_pi.py)
+        from bench import bench_pi
+
+        return bench_pi.main([a for a in sys.argv[1:] if a != "--pi"])
     full = "--full" in sys.argv
     t0 = time.perf_counter()
     timings: dict = {}
