@@ -34,7 +34,7 @@ run: $(STAMP)
 
 test: $(STAMP) firmware-test
 	$(VENV)/bin/lint-imports --no-logo --no-cache
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q $$($(PY) -c "import PySide6" 2>/dev/null || echo "-p no:pytestqt") $(TESTS)
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q $$($(PY) -c "import PySide6" 2>/dev/null || echo "-p no:pytest-qt") $(TESTS)
 
 firmware-test:
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware test; fi
