@@ -9,7 +9,7 @@ import pytest
 # Without PySide6 (a system with no wheel for its glibc, e.g. Raspberry Pi OS Bookworm: deskarm
 # installs there without the window) the Qt tests cannot run: a test file that imports Qt, the
 # widgets or the window's modules, or asks for qtbot, is not collected. The Makefile then runs
-# pytest with -p no:pytestqt.
+# pytest with -p no:pytest-qt.
 import importlib.util as _importlib_util
 import re as _re
 
