@@ -19,6 +19,7 @@ from typing import Callable, Optional, Union
 import serial
 
 from core.devices import protocol_v2 as p
+from tests.host_board import V2Ports
 
 TIMEOUT_S = 10.0  # a give-up, not a timing check: the emulation runs in real time when it can
 PINS = ("D9", "D10", "D11")  # joints 1, 2, 3 (PB1, PB2, PB3)
@@ -47,8 +48,10 @@ class Clock:
 Event = Union[Pulse, Off, Clock]
 
 
-class AvrBoard:
+class AvrBoard(V2Ports):
     """A running avr_harness: its measured events, its port, and helpers to talk to it."""
+
+    timeout_s = TIMEOUT_S  # the emulation may run slower than real time on a loaded machine
 
     def __init__(self, harness: Path, firmware: Path, *args: str) -> None:
         self.proc = subprocess.Popen(
@@ -132,26 +135,6 @@ class AvrBoard:
         self.read_until(done, timeout, what=f"{n} pulses on each pin")
         return {pin: v[:n] for pin, v in by_pin.items()}
 
-    def open(self) -> serial.Serial:
-        port = serial.Serial(self.path, 9600, timeout=0.05)
-        self.ports.append(port)
-        return port
-
-    def next_seq(self) -> int:
-        self._seq = (self._seq + 1) % 256
-        return self._seq
-
-    def status(self, port: serial.Serial, timeout: float = TIMEOUT_S) -> p.StatusFrame:
-        """PING and return the STATUS reply that echoes its seq."""
-        seq = self.next_seq()
-        port.write(p.encode_ping(seq))
-        dec = p.V2Decoder()
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            for frame in dec.feed(port.read(max(1, port.in_waiting))):
-                if isinstance(frame, p.StatusFrame) and frame.seq == seq:
-                    return frame
-        raise AssertionError(f"no STATUS reply to PING seq {seq} within {timeout} s")
 
     def speed_ratio(self) -> Optional[float]:
         """Emulated seconds per wall second over the run so far (None before the first CLOCK)."""

@@ -17,7 +17,36 @@ TIMEOUT_S = 3.0  # generous: a loaded CI machine must not fail these
 SILENCE_S = 0.3  # 15 ticks without a PWM line: the ramp has stopped
 
 
-class Board:
+class V2Ports:
+    """Ports on a board's serial line (``self.path``; opened ones kept in ``self.ports``) and the
+    v2 PING → STATUS exchange; the host firmware's Board and the emulated Arduino share it."""
+
+    timeout_s = TIMEOUT_S
+
+    def open(self) -> serial.Serial:
+        port = serial.Serial(self.path, 9600, timeout=0.05)
+        self.ports.append(port)
+        return port
+
+    def next_seq(self) -> int:
+        self._seq = (self._seq + 1) % 256
+        return self._seq
+
+    def status(self, port: serial.Serial, timeout: Optional[float] = None) -> p.StatusFrame:
+        """PING and return the STATUS reply that echoes its seq."""
+        timeout = self.timeout_s if timeout is None else timeout
+        seq = self.next_seq()
+        port.write(p.encode_ping(seq))
+        dec = p.V2Decoder()
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            for frame in dec.feed(port.read(max(1, port.in_waiting))):
+                if isinstance(frame, p.StatusFrame) and frame.seq == seq:
+                    return frame
+        raise AssertionError(f"no STATUS reply to PING seq {seq} within {timeout} s")
+
+
+class Board(V2Ports):
     """A running host_firmware: its stdout lines, its port, and helpers to talk to it."""
 
     def __init__(self, exe: Path, *args: str) -> None:
@@ -72,26 +101,6 @@ class Board:
                 return seen
             seen.append(tuple(int(x) for x in line.split()[1:]))
 
-    def open(self) -> serial.Serial:
-        port = serial.Serial(self.path, 9600, timeout=0.05)
-        self.ports.append(port)
-        return port
-
-    def next_seq(self) -> int:
-        self._seq = (self._seq + 1) % 256
-        return self._seq
-
-    def status(self, port: serial.Serial, timeout: float = TIMEOUT_S) -> p.StatusFrame:
-        """PING and return the STATUS reply that echoes its seq."""
-        seq = self.next_seq()
-        port.write(p.encode_ping(seq))
-        dec = p.V2Decoder()
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            for frame in dec.feed(port.read(max(1, port.in_waiting))):
-                if isinstance(frame, p.StatusFrame) and frame.seq == seq:
-                    return frame
-        raise AssertionError(f"no STATUS reply to PING seq {seq} within {timeout} s")
 
     def stop(self, sig: int = signal.SIGTERM) -> Optional[int]:
         for port in self.ports:
