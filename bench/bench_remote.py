@@ -32,6 +32,15 @@ FLOOD_S = 5.0
 LOOP_FPS = "served loop fps, no flood (paired server)"
 
 
+
+def stop_server(proc) -> None:
+    """Ctrl-C the served desk, as a user would; kill it if it does not end within 15 s."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -83,11 +92,7 @@ def remote_figures(duration_s: float, estops: int) -> tuple[list[float], list[fl
                     client.wait_for("/deskarm/estop", lambda r: not r.msg.data, timeout=2.0,
                                     after=client.count("/deskarm/estop"))
         finally:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+            stop_server(proc)
     return latency_ms, round_trips, frames
 
 
@@ -167,11 +172,7 @@ def flood_figures(seconds: float = FLOOD_S) -> tuple[list[float], list[float], f
                         flooder.wait()
                 puts = int(out.split()[-1]) / (seconds + 1.0)
         finally:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+            stop_server(proc)
     return quiet, flooded, puts
 
 
