@@ -2,8 +2,12 @@
 
     deskarm train-detector [--images N] [--epochs E] [--minutes M] [--out PATH] [--data DIR]
                            [--test-images N] [--input WxH] [--seed S] [--threads T] [--json]
-    deskarm eval-detector [MODEL] [--images N] [--seed S] [--view stereo|hand|both] [--score-threshold X]
-                          [--backend B] [--json]
+    deskarm train-detector --add DIR [--name NAME]
+    deskarm eval-detector [MODEL] [--images N] [--seed S] [--view stereo|hand|both] [--realistic]
+                          [--score-threshold X] [--backend B] [--json]
+
+``train-detector --add DIR`` teaches the detector a new object from the frames and marks in DIR
+(``deskarm teach NAME --images DIR``, ``app.cli_teach``; NAME defaults to DIR's name).
 
 ``train-detector`` renders N labelled images of random simulated-desk scenes — about two thirds
 seen by the stereo rig, a third (``core.sim.dataset.HAND_SHARE``) by the assistive arm's hand
@@ -92,6 +96,9 @@ def _fill(p: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
         p.add_argument("--seed", type=int, default=0, help="training seed (weights, order, flips; default 0)")
         p.add_argument("--threads", type=int, default=0, metavar="T",
                        help="torch CPU threads (default: torch's; 1 is faster on a busy, shared CPU)")
+        p.add_argument("--add", default=None, metavar="DIR",
+                       help="teach a new object instead: DIR holds ≤ 60 frames and boxes.txt (see deskarm teach)")
+        p.add_argument("--name", default=None, metavar="NAME", help="with --add: the object's name (default DIR's)")
     else:
         p.add_argument("model", nargs="?", default=None, metavar="MODEL",
                        help="a YOLO-layout .onnx (default: the shipped resources/models/desk_objects.onnx)")
@@ -102,6 +109,8 @@ def _fill(p: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
         p.add_argument("--view", choices=VIEWS, default="stereo",
                        help="which camera's renders: the stereo rig's two views (default), the assistive arm's "
                             "hand camera (the lift panel up close), or both mixed as in training")
+        p.add_argument("--realistic", action="store_true",
+                       help="also score the same renders through the webcam realism preset (core.sim.realism)")
         p.add_argument("--score-threshold", type=float, default=EVAL_SCORE_THRESHOLD, metavar="X",
                        help=f"lowest detection score kept for the AP curve (default {EVAL_SCORE_THRESHOLD})")
         p.add_argument("--backend", choices=("cv2", "onnxruntime", "auto"), default="cv2",
@@ -115,9 +124,55 @@ def build_parser(command: str) -> argparse.ArgumentParser:
 
 
 # ---------------------------------------------------------------------------------------------- eval
+def score_realistic(detector, n_images: int, first_seed: int, classes, view: str = "stereo",
+                    preset="webcam"):
+    """``score_detector`` on the same held-out renders passed through the realism preset
+    (``core.sim.realism.apply_realism``: blur, rolling shutter, flicker, noise, vignetting, distortion,
+    JPEG; one draw per scene, seeded by it); the truth boxes follow the lens distortion."""
+    from core.detect.learned.evaluation import ScoredBox, TruthBox, evaluate_detections
+    from core.sim.dataset import held_out_seeds, render_views
+    from core.sim.realism import apply_realism, distort_points, preset_named
+
+    import numpy as np
+
+    preset = preset_named(preset)
+    n_scenes = -(-int(n_images) // 2)
+    truths, found = [], []
+    render_s = detect_s = 0.0
+    for seed in held_out_seeds(n_scenes, first_seed):
+        t0 = time.perf_counter()
+        pair = render_views(seed, tuple(classes), view)
+        images = apply_realism([s.image for s in pair], np.random.default_rng([seed, 27]), t=seed / 30.0,
+                               preset=preset)
+        render_s += time.perf_counter() - t0
+        for sample, image in list(zip(pair, images))[:n_images - len(truths)]:
+            h, w = image.shape[:2]
+            boxes = []
+            for b in sample.boxes:
+                x0, y0, x1, y1 = b.box
+                edge = np.linspace(0, 1, 7)
+                pts = np.concatenate([np.column_stack([x0 + (x1 - x0) * edge, np.full(7, y0)]),
+                                      np.column_stack([x0 + (x1 - x0) * edge, np.full(7, y1)]),
+                                      np.column_stack([np.full(7, x0), y0 + (y1 - y0) * edge]),
+                                      np.column_stack([np.full(7, x1), y0 + (y1 - y0) * edge])])
+                d = distort_points(pts, (w, h), preset)
+                boxes.append(TruthBox(b.label, (float(d[:, 0].min()), float(d[:, 1].min()), float(d[:, 0].max()),
+                                                float(d[:, 1].max())), b.difficult))
+            t0 = time.perf_counter()
+            detections = detector.detect(image)
+            detect_s += time.perf_counter() - t0
+            truths.append(boxes)
+            found.append([ScoredBox(q.label, (q.box[0], q.box[1], q.box[0] + q.box[2], q.box[1] + q.box[3]), q.score)
+                          for q in detections])
+    scores = evaluate_detections(truths, found, list(classes), 0.5, REPORT_SCORE_THRESHOLD)
+    n = max(len(truths), 1)
+    return scores, {"render_ms_per_image": 1000 * render_s / n, "detect_ms_per_image": 1000 * detect_s / n}
+
+
 def _score(model_path: Path, n_images: int, first_seed: int, score_threshold: float, backend: str,
-           view: str = "stereo") -> dict:
-    """Score a model file on held-out renders of ``view``: a JSON-ready dict (raises ValueError/OSError)."""
+           view: str = "stereo", realistic: bool = False) -> dict:
+    """Score a model file on held-out renders of ``view`` (through the realism preset when
+    ``realistic``): a JSON-ready dict (raises ValueError/OSError)."""
     from core.detect.onnx_yolo import OnnxYoloDetector
     from core.sim.dataset import CLASSES, score_detector
 
@@ -126,10 +181,13 @@ def _score(model_path: Path, n_images: int, first_seed: int, score_threshold: fl
     if not classes:
         raise ValueError(f"{model_path}: none of its classes {detector.names or '(unnamed)'} is a desk class "
                          f"({', '.join(CLASSES)}); name them in the model's 'names' metadata")
-    scores, timing = score_detector(detector, n_images, first_seed, classes, 0.5, REPORT_SCORE_THRESHOLD, view)
+    if realistic:
+        scores, timing = score_realistic(detector, n_images, first_seed, classes, view)
+    else:
+        scores, timing = score_detector(detector, n_images, first_seed, classes, 0.5, REPORT_SCORE_THRESHOLD, view)
     out = {"model": str(model_path), "backend": detector.backend, "input": list(detector.input_wh),
            "images": scores.n_images, "first_seed": first_seed, "view": view,
-           "detect_score_threshold": score_threshold}
+           "realism": "webcam" if realistic else None, "detect_score_threshold": score_threshold}
     out.update(scores.to_dict())
     out["timing"] = {k: round(v, 2) for k, v in timing.items()}
     out["_table"] = scores.table()
@@ -142,7 +200,8 @@ def _print_score(result: dict, as_json: bool) -> None:
         print(json.dumps(result))
         return
     camera = {"stereo": "stereo rig", "hand": "hand camera", "both": "stereo rig and hand camera"}[result["view"]]
-    print(f"{result['model']}: {result['images']} held-out renders of the {camera} (seeds from "
+    realism = " through the webcam realism preset" if result.get("realism") else " (clean)"
+    print(f"{result['model']}: {result['images']} held-out renders of the {camera}{realism} (seeds from "
           f"{result['first_seed']}), backend {result['backend']}, input {result['input'][0]}x{result['input'][1]}")
     print(table)
     t = result["timing"]
@@ -171,10 +230,17 @@ def _run_eval(args) -> int:
         return 2
     try:
         result = _score(model, args.images, args.seed, args.score_threshold, args.backend, args.view)
+        real = (_score(model, args.images, args.seed, args.score_threshold, args.backend, args.view, True)
+                if args.realistic else None)
     except (ValueError, ImportError) as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return 2
+    if real is not None and args.json:
+        real.pop("_table")
+        result["realistic"] = real
     _print_score(result, args.json)
+    if real is not None and not args.json:
+        _print_score(real, False)
     return 0
 
 
@@ -187,6 +253,13 @@ def _default_out() -> Path:
 
 def _run_train(args) -> int:
     prog = f"deskarm {TRAIN}"
+    if args.add is not None:
+        from app.cli_teach import teach_folder
+
+        folder = Path(args.add)
+        minutes = args.minutes if "--minutes" in args.argv else 4.0
+        return teach_folder(args.name or folder.resolve().name, folder, None, minutes=minutes, as_json=args.json,
+                            prog=prog)
     try:
         import torch  # noqa: F401
     except ImportError:
