@@ -178,6 +178,7 @@ SUBCOMMANDS = {
     "eval-detector": "app.cli_train",
     "assist-trials": "app.cli_assist",
     "rtx-init": "app.rtx_init",
+    "teach": "app.cli_teach",
 }
 
 

@@ -18,8 +18,8 @@ def _row(name, unit, samples, baseline=None, extra=""):
 # the bench modules, in the table's order (bench_assist_window compares with bench_window's idle row)
 MODULES = ("bench_perception", "bench_ik", "bench_render", "bench_calibration", "bench_serial", "bench_rtx", "bench_pipeline",
            "bench_record", "bench_window", "bench_assist_window", "bench_detect", "bench_assist", "bench_startup",
-           "bench_remote")
-OPTIONAL = {"bench_ik", "bench_render", "bench_remote"}  # a missing extra (ikpy, zenoh…) skips only these
+           "bench_remote", "bench_teach")
+OPTIONAL = {"bench_ik", "bench_render", "bench_remote", "bench_teach"}  # a missing extra (ikpy, zenoh…) skips only these
 
 
 def _module_rows(name: str, quick: bool) -> list[dict]:
