@@ -9,7 +9,6 @@ import argparse
 import os
 import sys
 
-from app.headless import check_duration
 from core.detect.registry import parse_detector_list
 from core.devices.bridge import BRIDGE_CHOICES
 from core.session import SCENARIOS, SessionOptions
@@ -307,7 +306,10 @@ def _main(argv: list[str] | None) -> int:
         size = parse_size(args.size)
         if not (1.0 <= args.fps <= 240.0):
             raise ValueError(f"--fps {args.fps:g} is outside 1…240")
-        check_duration(args.duration)
+        if args.headless:  # the window path does not import the headless runner (start-up)
+            from app.headless import check_duration
+
+            check_duration(args.duration)
     except ValueError as exc:  # ProfileError and SettingsError are ValueErrors too
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2

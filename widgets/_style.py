@@ -84,12 +84,159 @@ def touch_tabs(tabs: QtWidgets.QTabWidget) -> QtWidgets.QTabWidget:
 
 
 def touch_slider(slider: QtWidgets.QWidget) -> QtWidgets.QWidget:
-    """Give a (superqt or plain) horizontal slider a tall, finger-sized handle, and make it
+    """Give a horizontal slider (plain or a :class:`LabeledSlider`) a tall, finger-sized handle, and make it
     take the mouse wheel only when focused (see :class:`WheelWhenFocused`)."""
     slider.setStyleSheet(SLIDER_STYLE)
     slider.setMinimumHeight(TOUCH_PX)
     wheel_only_when_focused(slider)
     return slider
+
+
+class _JumpSlider(QtWidgets.QSlider):
+    """A QSlider whose handle jumps to where the groove is pressed (and can be dragged on from
+    there), as superqt's did: a finger taps the value it wants instead of paging towards it."""
+
+    def mousePressEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802 (Qt override)
+        if event.button() == QtCore.Qt.MouseButton.LeftButton:
+            option = QtWidgets.QStyleOptionSlider()
+            self.initStyleOption(option)
+            style, cc = self.style(), QtWidgets.QStyle.ComplexControl.CC_Slider
+            handle = style.subControlRect(cc, option, QtWidgets.QStyle.SubControl.SC_SliderHandle, self)
+            if not handle.contains(event.position().toPoint()):
+                groove = style.subControlRect(cc, option, QtWidgets.QStyle.SubControl.SC_SliderGroove, self)
+                x = int(event.position().x() - groove.x() - handle.width() / 2)
+                self.setValue(QtWidgets.QStyle.sliderValueFromPosition(
+                    self.minimum(), self.maximum(), x, max(1, groove.width() - handle.width()), option.upsideDown))
+        super().mousePressEvent(event)
+
+
+class LabeledSlider(QtWidgets.QWidget):
+    """A horizontal QSlider with its value in a QSpinBox beside it (typing a value moves the
+    slider), in place of superqt's QLabeledSlider (whose import cost a Pi ~1 s of start-up).
+
+    The same calls the panels made on superqt's: ``value``, ``setValue``, ``setRange``,
+    ``minimum``/``maximum``, ``setSingleStep``, ``setPageStep``; ``blockSignals`` silences
+    ``valueChanged``. Make it finger-sized with :func:`touch_slider`.
+
+    Signals: ``valueChanged(int)`` (GUI thread) when the value changes — dragged, typed or set.
+    """
+
+    valueChanged = QtCore.Signal(int)
+    _SCALED = False  # the slider's positions are value × 10**decimals (LabeledDoubleSlider)
+
+    def __init__(self, orientation: QtCore.Qt.Orientation = QtCore.Qt.Orientation.Horizontal,
+                 parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        del orientation  # horizontal only: every panel row is one
+        self._decimals = 2 if self._SCALED else 0  # superqt's defaults: 0…99, 2 decimals
+        self._min, self._max, self._step, self._page, self._value = map(self._cast, (0, 99, 1, 10, 0))
+        self._slider = _JumpSlider(QtCore.Qt.Orientation.Horizontal)
+        self._box = QtWidgets.QDoubleSpinBox() if self._SCALED else QtWidgets.QSpinBox()
+        self._box.setButtonSymbols(QtWidgets.QAbstractSpinBox.ButtonSymbols.NoButtons)
+        self._box.setKeyboardTracking(False)  # "123" commits once, on Enter or focus loss
+        self._box.setAlignment(QtCore.Qt.AlignmentFlag.AlignRight | QtCore.Qt.AlignmentFlag.AlignVCenter)
+        self._box.setFrame(False)
+        self._box.setMinimumHeight(TOUCH_PX)
+        row = QtWidgets.QHBoxLayout(self)
+        row.setContentsMargins(0, 0, 0, 0)
+        row.setSpacing(4)
+        row.addWidget(self._slider, 1)
+        row.addWidget(self._box)
+        self._slider.valueChanged.connect(self._on_slider)
+        self._box.valueChanged.connect(self.setValue)
+        self._sync()
+
+    def _scale(self) -> float:
+        return 10.0 ** self._decimals if self._SCALED else 1.0
+
+    def _position(self, value) -> int:
+        return int(round(value * self._scale()))
+
+    def _sync(self) -> None:
+        """Show the range, steps and value in the slider and the box (their signals held)."""
+        s, b = self._slider, self._box
+        held = s.blockSignals(True), b.blockSignals(True)
+        try:
+            s.setRange(self._position(self._min), self._position(self._max))
+            s.setSingleStep(max(1, self._position(self._step)))
+            s.setPageStep(max(1, self._position(self._page)))
+            s.setValue(self._position(self._value))
+            if self._SCALED:
+                b.setDecimals(self._decimals)
+            b.setRange(self._min, self._max)
+            b.setSingleStep(self._step)
+            b.setValue(self._value)
+            widest = max(b.textFromValue(self._min), b.textFromValue(self._max), key=len)
+            b.setFixedWidth(b.fontMetrics().horizontalAdvance(widest + "0") + 8)
+        finally:
+            s.blockSignals(held[0])
+            b.blockSignals(held[1])
+
+    def _on_slider(self, position: int) -> None:
+        self.setValue(position / self._scale() if self._SCALED else position)
+
+    def _cast(self, value):
+        return float(value) if self._SCALED else int(round(value))
+
+    def value(self):
+        return self._value
+
+    def setValue(self, value) -> None:  # noqa: N802 (Qt naming)
+        value = self._cast(min(max(value, self._min), self._max))
+        if value == self._value:
+            return
+        self._value = value
+        self._sync()
+        self.valueChanged.emit(value)
+
+    def minimum(self):
+        return self._min
+
+    def maximum(self):
+        return self._max
+
+    def setRange(self, minimum, maximum) -> None:  # noqa: N802 (Qt naming)
+        self._min, self._max = self._cast(minimum), self._cast(max(minimum, maximum))
+        self._sync()
+        self.setValue(self._value)  # clamped into the new range (and announced) like QSlider
+
+    def setMinimum(self, minimum) -> None:  # noqa: N802 (Qt naming)
+        self.setRange(minimum, max(minimum, self._max))
+
+    def setMaximum(self, maximum) -> None:  # noqa: N802 (Qt naming)
+        self.setRange(min(self._min, maximum), maximum)
+
+    def singleStep(self):  # noqa: N802 (Qt naming)
+        return self._step
+
+    def setSingleStep(self, step) -> None:  # noqa: N802 (Qt naming)
+        self._step = self._cast(step)
+        self._sync()
+
+    def pageStep(self):  # noqa: N802 (Qt naming)
+        return self._page
+
+    def setPageStep(self, step) -> None:  # noqa: N802 (Qt naming)
+        self._page = self._cast(step)
+        self._sync()
+
+
+class LabeledDoubleSlider(LabeledSlider):
+    """:class:`LabeledSlider` for floats, shown with ``decimals`` (setDecimals) in a
+    QDoubleSpinBox; the slider moves in steps of 10**-decimals.
+
+    Signals: ``valueChanged(float)`` (GUI thread) when the value changes — dragged, typed or set.
+    """
+
+    valueChanged = QtCore.Signal(float)
+    _SCALED = True
+
+    def decimals(self) -> int:
+        return self._decimals
+
+    def setDecimals(self, decimals: int) -> None:  # noqa: N802 (Qt naming)
+        self._decimals = int(decimals)
+        self._sync()
 
 
 class WheelWhenFocused(QtCore.QObject):
@@ -122,7 +269,7 @@ class WheelWhenFocused(QtCore.QObject):
 
 def wheel_only_when_focused(control: QtWidgets.QWidget) -> QtWidgets.QWidget:
     """Install :class:`WheelWhenFocused` on ``control`` and on its sliders and spin boxes
-    (a superqt labelled slider is a slider and a spin box inside a widget)."""
+    (a :class:`LabeledSlider` is a slider and a spin box inside a widget)."""
     guard = WheelWhenFocused(control)
     control.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
     for widget in [control, *control.findChildren(QtWidgets.QAbstractSlider),

@@ -9,12 +9,13 @@ from dataclasses import dataclass
 from typing import Optional
 
 from PySide6 import QtCore, QtWidgets
-from superqt import QLabeledDoubleSlider, QLabeledSlider
 
 from core.settings import SGBM_MODES, CameraSettings, SettingsError, SgbmParams
 from widgets._style import (
     TOUCH_PX,
     Coalescer,
+    LabeledDoubleSlider,
+    LabeledSlider,
     touch_button,
     touch_combo,
     touch_scroll_area,
@@ -70,13 +71,13 @@ class CameraSettingsPanel(QtWidgets.QWidget):
         super().__init__(parent)
         self._last_sent = settings or CameraSettings()
         self._coalescer = Coalescer(THROTTLE_MS, self._emit_now, self)
-        self.sliders: dict[str, QLabeledDoubleSlider] = {}
+        self.sliders: dict[str, LabeledDoubleSlider] = {}
 
         grid = QtWidgets.QGridLayout(self)
         grid.setContentsMargins(4, 4, 4, 4)
         grid.setColumnStretch(1, 1)
         for row, spec in enumerate(CAMERA_SLIDERS):
-            slider = QLabeledDoubleSlider(HORIZONTAL)
+            slider = LabeledDoubleSlider(HORIZONTAL)
             slider.setRange(spec.lo, spec.hi)
             slider.setSingleStep(spec.step)
             slider.setPageStep(spec.step * 10)
@@ -184,7 +185,7 @@ class SgbmPanel(QtWidgets.QWidget):
         super().__init__(parent)
         self._last_sent = params or SgbmParams()
         self._coalescer = Coalescer(THROTTLE_MS, self._emit_now, self)
-        self.sliders: dict[str, QLabeledSlider] = {}
+        self.sliders: dict[str, LabeledSlider] = {}
         self.auto_boxes: dict[str, QtWidgets.QCheckBox] = {}
         self._labels: dict[str, QtWidgets.QLabel] = {}
         self._specs = {spec.name: spec for spec in SGBM_SLIDERS}
@@ -202,7 +203,7 @@ class SgbmPanel(QtWidgets.QWidget):
         grid.addWidget(self.mode_combo, row, 1)
         row += 1
         for spec in SGBM_SLIDERS:
-            slider = QLabeledSlider(HORIZONTAL)
+            slider = LabeledSlider(HORIZONTAL)
             slider.setRange(spec.lo, spec.hi)
             slider.setSingleStep(spec.step)
             slider.setPageStep(spec.step * 4)

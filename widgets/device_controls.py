@@ -13,10 +13,9 @@ from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 
 from PySide6 import QtCore, QtWidgets
-from superqt import QLabeledDoubleSlider
 
 from core.vision.cameras import CameraControl
-from widgets._style import TOUCH_PX, WARN_COLOUR, Coalescer, touch_button, touch_slider
+from widgets._style import TOUCH_PX, WARN_COLOUR, Coalescer, LabeledDoubleSlider, touch_button, touch_slider
 
 THROTTLE_MS = 50
 HORIZONTAL = QtCore.Qt.Orientation.Horizontal
@@ -44,7 +43,7 @@ class _ControlRow:
         self.label.setWordWrap(True)
         if not control.range_known:
             self.label.setToolTip("the camera did not report this range: a typical webcam range is used")
-        self.slider = QLabeledDoubleSlider(HORIZONTAL)
+        self.slider = LabeledDoubleSlider(HORIZONTAL)
         self.slider.setDecimals(_decimals(control.step))
         self.slider.setRange(control.minimum, control.maximum)
         self.slider.setSingleStep(control.step)

@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Optional, Sequence
 
 from PySide6 import QtCore, QtWidgets
-from superqt import QLabeledDoubleSlider, QLabeledSlider
 
 from core.settings import (
     BM_PREFILTERS,
@@ -19,6 +18,8 @@ from widgets._style import (
     OK_COLOUR,
     TOUCH_PX,
     Coalescer,
+    LabeledDoubleSlider,
+    LabeledSlider,
     coloured_label_style,
     touch_button,
     touch_combo,
@@ -128,7 +129,7 @@ class StereoPanel(QtWidgets.QWidget):
         grid.addWidget(self.wls_box, r, 0, 1, 2)
         r += 1
         self.wls_lambda = self._int_slider(100, 20000, 100)
-        self.wls_sigma = QLabeledDoubleSlider(HORIZONTAL)
+        self.wls_sigma = LabeledDoubleSlider(HORIZONTAL)
         self.wls_sigma.setRange(0.1, 5.0)
         self.wls_sigma.setSingleStep(0.05)
         self.wls_sigma.setDecimals(2)
@@ -171,8 +172,8 @@ class StereoPanel(QtWidgets.QWidget):
         layout.addStretch(1)
         self._show_match(self._last_match)
 
-    def _int_slider(self, lo: int, hi: int, step: int) -> QLabeledSlider:
-        s = QLabeledSlider(HORIZONTAL)
+    def _int_slider(self, lo: int, hi: int, step: int) -> LabeledSlider:
+        s = LabeledSlider(HORIZONTAL)
         s.setRange(lo, hi)
         s.setSingleStep(step)
         s.setPageStep(step * 4)
