@@ -37,6 +37,7 @@ from app.features.teleop import TeleopFeature
 from app.preferences import WindowPreferences
 from app.startup import GuiThreadGarbage, finish_splash, make_app
 from app.window_draw import (  # noqa: F401 (the change tests import these from here)
+    RedrawPacer,
     command_changed,
     draw_twin,
     draw_views,
@@ -113,7 +114,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._drawn_result = self._drawn_command = self._drawn_goal = self._drawn_state = None
         self._only_changes = True  # see redraw_only_changes
         self._running = False
-        self._draw_started = 0.0  # time.perf_counter() when the last draw began
+        self.pacer = RedrawPacer(REDRAW_INTERVAL_MS, getattr(getattr(session, "options", None), "fps", 30.0))
         self._bridge_status = None
         self._frame_times: list[float] = []
         self._latency_ms = 0.0
@@ -346,14 +347,13 @@ class MainWindow(QtWidgets.QMainWindow):
     def _mark_dirty(self, *_args) -> None:
         """Draw at the next redraw, arming the redraw timer unless it already runs.
 
-        The timer fires REDRAW_INTERVAL_MS after the last draw began (but never sooner than
-        MIN_REDRAW_GAP_MS from now), so a camera frame arriving at 30 fps is drawn as it comes
-        instead of waiting a whole interval from its arrival.
+        The timer fires the pacer's interval (REDRAW_INTERVAL_MS; longer while the CPU is short)
+        after the last draw began (never sooner than MIN_REDRAW_GAP_MS from now), so a camera frame
+        arriving at 30 fps is drawn as it comes instead of waiting a whole interval from its arrival.
         """
         self._dirty = True
         if self._running and not self._redraw_timer.isActive():
-            since_ms = (time.perf_counter() - self._draw_started) * 1e3
-            self._redraw_timer.start(int(max(MIN_REDRAW_GAP_MS, REDRAW_INTERVAL_MS - since_ms)))
+            self._redraw_timer.start(self.pacer.next_draw_in_ms(MIN_REDRAW_GAP_MS))
 
     # --- worker slots (GUI thread; they only store, redraw draws) ----------------------------
     @QtCore.Slot(object)
@@ -548,11 +548,11 @@ class MainWindow(QtWidgets.QMainWindow):
         try:
             if self._dirty:
                 self._dirty = False
-                self._draw_started = time.perf_counter()
-                self._draw()
+                with self.pacer.drawing(self._frame_times):
+                    self._draw()
         finally:
             if not self._only_changes and self._running:
-                self._redraw_timer.start(REDRAW_INTERVAL_MS)
+                self._redraw_timer.start(int(self.pacer.interval_ms))
 
     def _draw(self) -> None:
         s, r = self.session, self._result

@@ -4,6 +4,9 @@ the line under STOP that says how the target is doing. app/gui.py's redraw calls
 """
 from __future__ import annotations
 
+import time
+from contextlib import contextmanager
+
 import numpy as np
 
 from app.window_texts import following_text
@@ -12,6 +15,81 @@ from widgets.arm_twin import profile_joint_levels, same_points
 from widgets.camera_view import MarkerOverlay, ObjectOverlay
 
 COMPACT_VIEW_PX = 420  # narrower camera views label markers by id and objects by id and name only
+MAX_REDRAW_INTERVAL_MS = 200.0  # the pacer never draws fewer than 5 times a second
+PACER_PERIOD_S = 1.0  # the pacer decides once a second, from that second's draws and results
+SLOWDOWN_MAX = 2.0  # draws taking over twice their CPU time in wall time: the CPU (or GIL) is contended
+LOOP_BEHIND = 0.93  # the loop below this share of the camera's frame rate needs the CPU the draws take
+LOOP_KEEPS_UP = 0.98  # … at or above it, the draws may come back towards the display rate
+PACER_GROW_MAX, PACER_SHRINK = 2.0, 0.75  # interval factors per decision: back off fast, return surely
+LOOP_HISTORY_S = 1.5  # the loop's rate counts from this much history (not the start-up's first frames)
+
+
+class RedrawPacer:
+    """How far apart the window's draws start (``interval_ms``): the display rate while the GUI
+    thread draws freely, stretched — up to MAX_REDRAW_INTERVAL_MS — while its draws wait for the
+    CPU or the GIL (wall time over SLOWDOWN_MAX × their thread CPU time) and the perception loop
+    falls behind the camera. The loop keeps its frames and commands; the screen shows fewer.
+
+    On a machine with room (a desktop, a Pi's spare core) draws run at their CPU speed and the
+    interval stays at the display rate; in a Pi 4 core's budget the draws and the loop share the
+    core and drawing less is what lets the loop keep up. ``clock``/``cpu_clock``: wall and this
+    thread's CPU seconds (injected by tests). GUI thread only.
+    """
+
+    def __init__(self, base_ms: float, camera_fps: float = 30.0, max_ms: float = MAX_REDRAW_INTERVAL_MS,
+                 clock=time.perf_counter, cpu_clock=time.thread_time) -> None:
+        self.base_ms, self.max_ms, self.camera_fps = float(base_ms), float(max_ms), float(camera_fps)
+        self.interval_ms = self.base_ms
+        self.draw_started = 0.0  # clock() when the last draw began
+        self._clock, self._cpu_clock = clock, cpu_clock
+        self._period_start = clock()
+        self._wall_s = self._cpu_s = 0.0  # of this period's draws
+        self._draws = 0  # in this period
+
+    @contextmanager
+    def drawing(self, frame_times=()):
+        """Time one draw; ``frame_times``: the loop's recent result times (seconds, ascending)."""
+        t0 = self.draw_started = self._clock()
+        c0 = self._cpu_clock()
+        try:
+            yield
+        finally:
+            now = self._clock()
+            self._wall_s += now - t0
+            self._cpu_s += self._cpu_clock() - c0
+            self._draws += 1
+            if now - self._period_start >= PACER_PERIOD_S:
+                t = list(frame_times)
+                known = len(t) > 2 and t[-1] - t[0] >= LOOP_HISTORY_S
+                self.decide((len(t) - 1) / (t[-1] - t[0]) if known else None,
+                            (now - self._period_start) * 1e3 / self._draws)
+                self._period_start, self._wall_s, self._cpu_s, self._draws = now, 0.0, 0.0, 0
+
+    def next_draw_in_ms(self, min_gap_ms: float) -> int:
+        """When the next draw may start: the interval after the last draw began, but never
+        sooner than ``min_gap_ms`` from now (the event loop's share between slow draws)."""
+        since_ms = (self._clock() - self.draw_started) * 1e3
+        return int(max(min_gap_ms, self.interval_ms - since_ms))
+
+    def slowdown(self) -> float:
+        """This period's draws' wall time over their CPU time (1: they ran undisturbed)."""
+        return self._wall_s / self._cpu_s if self._cpu_s > 0 else 1.0
+
+    def decide(self, loop_fps, spacing_ms: float = 0.0) -> float:
+        """The new interval from this period's draws and the loop's rate (None: unknown).
+
+        Starved, it grows by the draws' slowdown over SLOWDOWN_MAX (at most PACER_GROW_MAX a
+        period) from the spacing the draws actually had (``spacing_ms``: a CPU-bound window
+        already draws slower than its interval, and only a longer interval than that frees CPU).
+        """
+        slowdown = self.slowdown()
+        contended = slowdown > SLOWDOWN_MAX
+        if contended and loop_fps is not None and loop_fps < LOOP_BEHIND * self.camera_fps:
+            grow = min(PACER_GROW_MAX, slowdown / SLOWDOWN_MAX)
+            self.interval_ms = min(self.max_ms, max(self.interval_ms, spacing_ms) * grow)
+        elif not contended or loop_fps is None or loop_fps >= LOOP_KEEPS_UP * self.camera_fps:
+            self.interval_ms = max(self.base_ms, self.interval_ms * PACER_SHRINK)
+        return self.interval_ms
 
 
 # --- what a new worker message changes on screen (pure: tested without a window) -------------
