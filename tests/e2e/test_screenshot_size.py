@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+pytest.importorskip("PySide6", reason="the window (--screenshot) needs PySide6, which this system has no wheel of")
+
 from core.preferences import Preferences, WindowGeometry, preferences_path, save_preferences
 
 ROOT = Path(__file__).resolve().parents[2]
