@@ -22,7 +22,8 @@ Strict: it rejects what the real controller would — an unknown command (CMD_NO
 controller not fitted on that chip (SELECT_OOR), a parameter code or value out of range
 (PARAM_OOR), writing a read-only parameter (READ_ONLY), DEF_WRITE2 / DEF_READ2 without the
 selecting DEF_WRITE1 / DEF_READ1 just before on that chip (CMD_OOR), GO for a motor still moving
-(AXIS_BUSY), a command arriving closer than 8 ms to the previous one (FRAME_OVERRUN), a
+(AXIS_BUSY), a command certainly written closer than 8 ms after the previous one (FRAME_OVERRUN;
+bytes a starved emulator or the pty delivers late or bunched are not held against the host), a
 multi-byte command whose bytes stop arriving (FRAME_TIMEOUT), anything but GO while restarted.
 
 Faults on request: ``no_answer(n)`` (the next n commands get no reply; ``None`` = silent until
@@ -61,6 +62,12 @@ from core.devices import rtx_protocol as p
 FRAME_TIMEOUT_S = 0.05  # a multi-byte command's bytes must follow within this
 LAG_S = 0.03  # the measured position follows the setpoint with this time constant
 TICK_S = 0.002  # the serving thread's physics step when the line is quiet
+# RtxEmulator: the longest stretch of wall time simulated at once. A longer gap means the host
+# starved the emulator (a real controller never stops); the arm's time waits for it instead of
+# being caught up in one go before the next reply (at --time-scale 60 a starved second costs
+# ~0.3 s of CPU, which on a loaded host delays the reply past the bridge's timeout, and so on)
+MAX_CATCH_UP_S = 0.02
+READ_SIZE = 256  # bytes read from the pty at once
 SAVE_EVERY_S = 0.1  # --state: how often a changed state is written
 
 # the arm's end stops in counts once initialised (the initialisation writes these counts at the
@@ -137,10 +144,15 @@ class RtxController:
     """The emulated controller and arm (see the module docstring). Thread-safe: one lock."""
 
     def __init__(self, time_scale: float = 1.0, clock: Callable[[], float] = time.monotonic,
-                 spacing_s: float = p.COMMAND_SPACING_S):
+                 spacing_s: float = p.COMMAND_SPACING_S, max_catch_up_s: Optional[float] = None):
         if not time_scale > 0:
             raise ValueError(f"time_scale = {time_scale}: must be > 0")
+        if max_catch_up_s is not None and not max_catch_up_s > 0:
+            raise ValueError(f"max_catch_up_s = {max_catch_up_s}: must be > 0 (or None: every gap simulated)")
         self.time_scale = float(time_scale)
+        # a clock gap longer than this is simulated as this long (None: all of it); RtxEmulator sets
+        # MAX_CATCH_UP_S so that a starved emulator answers at once and its arm waits
+        self.max_catch_up_s = max_catch_up_s
         self.clock = clock
         self.spacing_s = float(spacing_s)
         self.lock = threading.RLock()
@@ -153,7 +165,7 @@ class RtxController:
         self._no_answer: Optional[int] = 0  # commands left without a reply; None = silent
         self._garbage = 0
         self._t: Optional[float] = None
-        self._last_rx: Optional[float] = None
+        self._last_rx: Optional[float] = None  # the previous command's earliest possible write time
         self.dirty = True
         self._power_up(first=True)
 
@@ -230,7 +242,10 @@ class RtxController:
             if self._t is None:
                 self._t = t
                 return
-            dt = (t - self._t) * self.time_scale
+            gap = t - self._t
+            if self.max_catch_up_s is not None:
+                gap = min(gap, self.max_catch_up_s)
+            dt = gap * self.time_scale
             self._t = t
             while dt > 0:
                 step = min(dt, 0.01)
@@ -303,15 +318,23 @@ class RtxController:
 
     # ------------------------------------------------------------ commands
 
-    def handle(self, cmd: bytes, t: Optional[float] = None) -> Optional[bytes]:
-        """Process one whole command arriving at ``t``; the reply, or None (no answer)."""
+    def handle(self, cmd: bytes, t: Optional[float] = None, written_after: Optional[float] = None) -> Optional[bytes]:
+        """Process one whole command arriving at ``t``; the reply, or None (no answer).
+
+        ``written_after``: the earliest the host can have written it (default ``t``) — the last
+        moment the emulator saw the line empty. A command is refused as too close (FRAME_OVERRUN)
+        only when it arrived less than the spacing after the EARLIEST moment the previous one can
+        have been written: the host certainly wrote them too close. Bytes that reach the emulator
+        late or bunched (a starved emulator, a pty delivering two writes in one read) widen that
+        window, so they are never counted against the host."""
         t = self.clock() if t is None else t
+        earliest = t if written_after is None else min(written_after, t)
         with self.lock:
             self.advance(t)
             chip = self.chips[self.line]
             self.received.append((t, chip.ip, bytes(cmd)))
             too_close = self._last_rx is not None and t - self._last_rx < self.spacing_s - 1e-6
-            self._last_rx = t
+            self._last_rx = earliest
             if self._no_answer is None:
                 return None
             if self._no_answer > 0:
@@ -554,12 +577,17 @@ class RtxEmulator:
 
     ``start()`` returns the pty path a bridge opens like a serial port; ``stop()`` joins the
     thread and closes the pty. Bytes are framed into commands by their first byte
-    (``rtx_protocol.command_length``); a command's arrival time is when its first byte was read.
+    (``rtx_protocol.command_length``); a command's arrival time is when its first byte was read,
+    and the earliest the host can have written it is the last time the line was seen empty before
+    that read (the controller judges the 8 ms spacing by that window). The controller simulates at
+    most ``MAX_CATCH_UP_S`` of a longer gap (the host starved this thread): replies stay prompt.
     """
 
     def __init__(self, controller: Optional[RtxController] = None, time_scale: float = 1.0,
                  on_tick: Optional[Callable[[], None]] = None):
         self.controller = controller or RtxController(time_scale=time_scale)
+        if self.controller.max_catch_up_s is None:
+            self.controller.max_catch_up_s = MAX_CATCH_UP_S
         self.path: Optional[str] = None
         self._master: Optional[int] = None
         self._slave: Optional[int] = None
@@ -595,31 +623,41 @@ class RtxEmulator:
         ctl = self.controller
         buf = bytearray()
         first_t = 0.0
+        first_written_after = 0.0
+        quiet_t = ctl.clock()  # the line held no unread byte at this moment: later bytes were written after it
         master = self._master
         while not self._stop.is_set():
+            polled = ctl.clock()
             try:
                 ready, _, _ = select.select([master], [], [], TICK_S)
             except (OSError, ValueError):
                 return
             now = ctl.clock()
             if ready:
+                written_after = quiet_t
+                before_read = ctl.clock()
                 try:
-                    data = os.read(master, 256)
+                    data = os.read(master, READ_SIZE)
                 except OSError:
                     data = b""
+                if len(data) < READ_SIZE:
+                    quiet_t = before_read  # what this read left behind arrives after it
                 for b in data:
                     if not buf:
                         first_t = now
+                        first_written_after = written_after
                     buf.append(b)
                     need = p.command_length(buf[0])
                     if len(buf) >= need:
-                        reply = ctl.handle(bytes(buf[:need]), first_t)
+                        reply = ctl.handle(bytes(buf[:need]), first_t, first_written_after)
                         del buf[:need]
                         if reply:
                             self._write(reply)
-            elif buf and now - first_t > FRAME_TIMEOUT_S:
-                buf.clear()
-                self._write(ctl.frame_timeout())
+            else:
+                quiet_t = polled
+                if buf and now - first_t > FRAME_TIMEOUT_S:
+                    buf.clear()
+                    self._write(ctl.frame_timeout())
             ctl.advance(now)
             if self._on_tick is not None:
                 self._on_tick()
