@@ -23,6 +23,23 @@ NS = 1_000_000_000
 LEFT = ros.IMAGE_TOPICS["left"]
 
 
+def put_when_subscribed(peer, topic: str, payload: bytes, attachment) -> None:
+    """Publish once, as a ROS 2 node does, after the served desk's subscription to ``topic`` has
+    reached ``peer``: a peer drops a put that matches no subscriber it knows of yet, and a fresh
+    session on a loaded host can learn of them late."""
+    publisher = peer.declare_publisher(ros.key_expr(topic))
+    matched = threading.Event()
+    listener = publisher.declare_matching_listener(lambda status: matched.set() if status.matching else None)
+    try:
+        if publisher.matching_status.matching:
+            matched.set()
+        assert matched.wait(WAIT), f"the served desk's {topic} subscription never reached the peer"
+        publisher.put(payload, attachment=attachment.encode())
+    finally:
+        listener.undeclare()
+        publisher.undeclare()
+
+
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
     problem = zenoh_loopback_problem()
@@ -132,8 +149,8 @@ def test_target_position_from_the_ros_interface_moves_the_arm_when_no_client_hol
             point = ros.typestore().types["geometry_msgs/msg/Point"](x=0.15, y=0.05, z=0.12)
             goals = server.stats.goals_received
             before = watcher.count("/deskarm/goal")
-            peer.put(ros.key_expr("/target_position"), ros.serialize(point, "geometry_msgs/msg/Point"),
-                     attachment=ros.Attachment(1, time.time_ns(), b"ros2-publisher-1").encode())
+            put_when_subscribed(peer, "/target_position", ros.serialize(point, "geometry_msgs/msg/Point"),
+                                ros.Attachment(1, time.time_ns(), b"ros2-publisher-1"))
             r = watcher.wait_for("/deskarm/goal", lambda r: abs(r.msg.point.x - 0.15) < 1e-9
                                  and abs(r.msg.point.z - 0.12) < 1e-9, timeout=WAIT, after=before)
             assert r is not None, f"/target_position did not become the goal: {watcher.session()}"
@@ -153,8 +170,8 @@ def test_pitch_and_roll_on_an_arm_without_a_wrist_are_refused_with_the_reason(se
         peer = open_session(LinkOptions(connect=(served["endpoint"],)))
         try:
             angle = ros.typestore().types["std_msgs/msg/Float64"](data=0.3)
-            peer.put(ros.key_expr("/target_pitch"), ros.serialize(angle, "std_msgs/msg/Float64"),
-                     attachment=ros.Attachment(2, time.time_ns(), b"ros2-publisher-1").encode())
+            put_when_subscribed(peer, "/target_pitch", ros.serialize(angle, "std_msgs/msg/Float64"),
+                                ros.Attachment(2, time.time_ns(), b"ros2-publisher-1"))
             r = watcher.wait_for("/deskarm/session", lambda r: any(
                 "/target_pitch" in t and "no wrist" in t for t in json.loads(r.msg.data)["refused"]), timeout=WAIT)
             assert r is not None, watcher.session()
