@@ -30,6 +30,7 @@ from app.features.objects import NO_DETECTOR_HINT, ObjectsFeature
 from app.features.robot import RobotFeature
 from app.features.recording import RecordingFeature, show_play_again  # noqa: F401 (re-exported)
 from app.features.rtx import RtxFeature
+from app.features.teach import TeachFeature
 from app.features.status import StatusFeature
 from app.features.stereo import StereoFeature
 from app.features.target import TargetFeature
@@ -38,6 +39,8 @@ from app.preferences import WindowPreferences
 from app.startup import GuiThreadGarbage, finish_splash, make_app
 from app.window_draw import (  # noqa: F401 (the change tests import these from here)
     RedrawPacer,
+    frame_rate,
+    note_frame,
     command_changed,
     draw_twin,
     draw_views,
@@ -216,7 +219,7 @@ class MainWindow(QtWidgets.QMainWindow):
             pages.append((self.jog.page_with_pose(), "Pose"))
         else:
             pages.append((self.jog_panel, "Jog"))
-        pages += [(self.markers_table, "Markers"), (self.detector_panel, "Objects"),
+        pages += [(self.markers_table, "Markers"), (self.objects.page_with(self.teach.page), "Objects"),
                   (self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (self.robot.page, "Robot")]
         self.tabs = touch_tab_widget(pages)
         self.tabs.currentChanged.connect(self._mark_dirty)  # a table that only updates while shown: at once
@@ -255,10 +258,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.robot.hand_eye_button.clicked.connect(self.calibration.open_hand_eye)
         self.robot.view_3d_button.toggled.connect(self.on_view_3d)
         self.rtx = RtxFeature(s, self)  # a UMI-RTX's encoder initialisation (no page for other arms)
+        self.teach = TeachFeature(s, parent=self)  # a new object for the desk model, in the Objects tab
+        self.teach.sigModelChanged.connect(self.objects.reload_learned)
         self.robot.add_panel(self.rtx.page)
         self.sgbm_panel = self.stereo.stereo_panel.sgbm  # the block-matching trackbars
         for feature in (self.recording, self.target, self.objects, self.markers, self.teleop, self.jog,
-                        self.calibration):
+                        self.calibration, self.teach):
             feature.sigNote.connect(self.status.show_note)
         for feature in (self.target, self.objects, self.teleop, self.jog):
             feature.sigChanged.connect(self._mark_dirty)
@@ -309,6 +314,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.calibration.close()  # stops and joins the wizards' workers
         self.recording.stop()
         self.rtx.stop()  # cancels and joins an RTX initialisation
+        self.teach.stop()  # cancels and joins a training under way
         self.estop_switches.stop()  # its key filter goes, its device threads are joined
         self.workers.stop()
 
@@ -363,10 +369,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.markers.pick_place is not None:
             self.markers.step_pick_place()
         self.recording.result(result)  # queue puts: the recorder's own thread encodes and writes
-        now = time.monotonic()
-        self._frame_times.append(now)
-        while self._frame_times and now - self._frame_times[0] > 2.0:
-            self._frame_times.pop(0)
+        note_frame(self._frame_times, time.monotonic())
+        self.teach.on_frame(None if result.frame is None else result.frame.left)  # while the Teach tab takes frames
         if not self._only_changes or (not self._dirty and result_changed(self._drawn_result, result)):
             self._mark_dirty()
 
@@ -591,8 +595,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """fps on the views; camera, bridge, fps and latency in the status bar (2 Hz timer)."""
         self.check_modal_dialog()
         self.recording.refresh()
-        t = self._frame_times  # the frames of the last 2 s
-        fps = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 2 else 0.0
+        fps = frame_rate(self._frame_times)  # the frames of the last 2 s
         r = self._result
         if r is not None and r.frame is not None:
             for view in (self.view_left, self.view_right):

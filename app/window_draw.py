@@ -224,3 +224,15 @@ def reach_status(controller, goal, cmd, teleop_line, preview_note: str):
     if teleop_line is not None and goal.mode is TargetMode.TELEOP:  # "teleop: following"
         return teleop_line
     return f"on target{' · ' + goal.note if goal.note else ''}", True
+
+
+def note_frame(times: list, now: float, keep_s: float = 2.0) -> None:
+    """Add a camera frame's arrival time (``now``) to ``times``; forget those older than ``keep_s``."""
+    times.append(now)
+    while times and now - times[0] > keep_s:
+        times.pop(0)
+
+
+def frame_rate(times) -> float:
+    """Frames per second over ``times`` (0 with fewer than three)."""
+    return (len(times) - 1) / (times[-1] - times[0]) if len(times) > 2 else 0.0

@@ -13,9 +13,10 @@ drawn changed (the detectors that run).
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import Callable, Optional
 
-from PySide6 import QtCore
+from PySide6 import QtCore, QtWidgets
 
 from core.detect.colour import colour_from_pixel
 from core.detect.thresholds import ClassThresholds
@@ -82,6 +83,15 @@ class ObjectsFeature(QtCore.QObject):
             self._classes |= new
             self.detector_panel.set_known_classes(sorted(new))
 
+    def page_with(self, *panels) -> QtWidgets.QWidget:
+        """The Objects tab: the detector panel, then ``panels`` (another feature's, e.g. Teach) below it."""
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        layout.setContentsMargins(0, 0, 0, 0)
+        for widget in (self.detector_panel, *panels):
+            layout.addWidget(widget)
+        return page
+
     @property
     def picking(self) -> bool:
         """"Pick colour" is on: the next tap on a camera view picks a colour."""
@@ -95,9 +105,24 @@ class ObjectsFeature(QtCore.QObject):
             self.detector_panel.set_message("")  # an old problem: the new request answers anew
         self.perception.request_detectors(specs)
 
+    @QtCore.Slot(str)
+    def reload_learned(self, path: str = "") -> None:
+        """A taught model was saved (``path``): the learned detectors running now are built anew,
+        so they load it — taken off, then (once the perception worker has done that) back on."""
+        specs = [(d.spec_name, dataclasses.asdict(d.params)) for d in self.perception.object_detectors()]
+        learned = [spec for spec in specs if spec[0] == "desk"]
+        if not learned:
+            self.sigNote.emit(f"Taught model saved ({path}): switch on the desk detector in Objects to use it")
+            return
+        self._reload_specs = specs
+        self.perception.request_detectors([spec for spec in specs if spec[0] != "desk"])
+
     @QtCore.Slot(object)
     def on_detectors_applied(self, running) -> None:
         """The perception worker now runs these detectors ((name, settings) list)."""
+        specs, self._reload_specs = getattr(self, "_reload_specs", None), None
+        if specs is not None:  # the learned detectors are off: back on, built from the new model
+            self.perception.request_detectors(specs)
         self.running = [name for name, _ in running]
         self.detector_panel.set_running(self.running)
         self.update_hint()
