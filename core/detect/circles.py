@@ -14,11 +14,12 @@ Two paths (``CircleParams.ellipses``):
 - Hough circles (``ellipses=False``): ``cv2.HoughCircles`` on a median-blurred grey image, as
   the delta controller used them when its camera looked straight down.
 
-Edges follow the image's contrast (``adaptive_edges``, the default): the edge thresholds of both
-EdgeDrawing and the edge support drop below their fixed values when the image is quiet (its median
-gradient is low), so grey photos and low-saturation round things — coins, washers, bottle caps,
-lift buttons, a step of ~10 grey levels from the desk — are found; on a textured or noisy image
-they stay where they were.
+Edges follow the image's contrast (``adaptive_edges``, the default): when the fixed thresholds
+find nothing, the edge thresholds of both EdgeDrawing and the edge support drop below their fixed
+values on a quiet image (its median gradient is low), so grey photos and low-saturation round
+things — coins, washers, bottle caps, lift buttons, a step of ~10 grey levels from the desk — are
+found; an image where the fixed thresholds find circles keeps exactly those (lowering them there
+added faint ghosts that moved the assistive arm's press off its button).
 
 Both report kind "circle", label "circle" (the shape says nothing about the colour: name a
 colour with the ``hsv`` detector), ``radius_px`` the semi-major axis and ``score`` the edge
@@ -153,7 +154,25 @@ class CircleDetector(BaseDetector):
     def _detect(self, image: np.ndarray) -> list[Detection]:
         p = self._params
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
-        canny_high, ed_threshold = self._edge_thresholds(grey)
+        scored = self._scored(image, grey, p.param1, _ED_GRADIENT_DEFAULT)
+        if not scored and p.adaptive_edges:  # nothing at the fixed thresholds: a quiet image's lower ones
+            canny_high, ed_threshold = self._edge_thresholds(grey)
+            if (canny_high, ed_threshold) != (p.param1, _ED_GRADIENT_DEFAULT):
+                scored = self._scored(image, grey, canny_high, ed_threshold)
+        scored.sort(key=lambda se: -se[1][2])  # largest first
+        out = []
+        for support, (cx, cy, a, b, ang) in scored[: p.max_objects]:
+            outline = ellipse_points(cx, cy, a, b, ang, _OUTLINE_POINTS) if p.ellipses else None
+            hw = math.hypot(a * math.cos(ang), b * math.sin(ang))
+            hh = math.hypot(a * math.sin(ang), b * math.cos(ang))
+            out.append(Detection(kind="circle", label="circle", score=support,
+                                 box=(cx - hw, cy - hh, 2 * hw, 2 * hh), centre_px=(cx, cy), radius_px=a,
+                                 contour=outline))
+        return out
+
+    def _scored(self, image: np.ndarray, grey: np.ndarray, canny_high: float, ed_threshold: int) -> list:
+        """(support, shape) of the shapes found with these edge thresholds that pass min_score."""
+        p = self._params
         if p.ellipses:
             shapes = self._ellipses(grey, ed_threshold)
             # edges of the colour image (Canny takes the strongest channel): a purple top on brown
@@ -170,16 +189,7 @@ class CircleDetector(BaseDetector):
                 scored.append((support, e))
         if p.ellipses:
             scored = self._suppress_nested(scored)
-        scored.sort(key=lambda se: -se[1][2])  # largest first
-        out = []
-        for support, (cx, cy, a, b, ang) in scored[: p.max_objects]:
-            outline = ellipse_points(cx, cy, a, b, ang, _OUTLINE_POINTS) if p.ellipses else None
-            hw = math.hypot(a * math.cos(ang), b * math.sin(ang))
-            hh = math.hypot(a * math.sin(ang), b * math.cos(ang))
-            out.append(Detection(kind="circle", label="circle", score=support,
-                                 box=(cx - hw, cy - hh, 2 * hw, 2 * hh), centre_px=(cx, cy), radius_px=a,
-                                 contour=outline))
-        return out
+        return scored
 
     def _hough(self, blurred: np.ndarray) -> list[tuple]:
         """Hough circles as ellipses (cx, cy, r, r, 0)."""
