@@ -144,15 +144,7 @@ class AvrBoard(V2Ports):
         return last.emulated_s / last.wall_s if last.wall_s > 0 else None
 
     def stop(self, sig: int = signal.SIGTERM) -> Optional[int]:
-        for port in self.ports:
-            port.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+        super().stop(sig)
         self._reader.join(timeout=5)
         return self.proc.returncode
 

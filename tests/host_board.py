@@ -19,7 +19,8 @@ SILENCE_S = 0.3  # 15 ticks without a PWM line: the ramp has stopped
 
 class V2Ports:
     """Ports on a board's serial line (``self.path``; opened ones kept in ``self.ports``) and the
-    v2 PING → STATUS exchange; the host firmware's Board and the emulated Arduino share it."""
+    v2 PING → STATUS exchange, stopping its process; the host firmware's Board and the emulated Arduino
+    share it."""
 
     timeout_s = TIMEOUT_S
 
@@ -44,6 +45,19 @@ class V2Ports:
                 if isinstance(frame, p.StatusFrame) and frame.seq == seq:
                     return frame
         raise AssertionError(f"no STATUS reply to PING seq {seq} within {timeout} s")
+
+    def stop(self, sig: int = signal.SIGTERM) -> Optional[int]:
+        """Close the ports, then end the board's process (``self.proc``): ``sig``, killed after 5 s."""
+        for port in self.ports:
+            port.close()
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.proc.returncode
 
 
 class Board(V2Ports):
@@ -102,14 +116,3 @@ class Board(V2Ports):
             seen.append(tuple(int(x) for x in line.split()[1:]))
 
 
-    def stop(self, sig: int = signal.SIGTERM) -> Optional[int]:
-        for port in self.ports:
-            port.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        return self.proc.returncode
