@@ -205,6 +205,17 @@ def _tight(item: pg.TextItem) -> None:
     item.updateTextPos()
 
 
+def _bold_label(point_size: float, fill_alpha: int) -> pg.TextItem:
+    """A white bold label of ``point_size`` on a black background of ``fill_alpha``, hugging its text."""
+    item = pg.TextItem(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, fill_alpha))
+    font = QtGui.QFont()
+    font.setPointSizeF(point_size)
+    font.setBold(True)
+    item.setFont(font)
+    _tight(item)
+    return item
+
+
 def _plan_labels(requests, boxes: Sequence[Rect], bounds: Rect, taken: Sequence[Rect], gap: float,
                  px: tuple[float, float]) -> tuple[dict, set]:
     """Place labels in the order of ``requests`` ((item, index of its thing in ``boxes``, on the
@@ -262,12 +273,7 @@ class _MarkerGraphics:
     def __init__(self, view_box: pg.ViewBox) -> None:
         self.view_box = view_box
         self.outline = pg.PlotCurveItem(antialias=True)
-        self.id_text = pg.TextItem(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 150))
-        font = QtGui.QFont()
-        font.setPointSizeF(MARKER_ID_PT)
-        font.setBold(True)
-        self.id_text.setFont(font)
-        _tight(self.id_text)
+        self.id_text = _bold_label(MARKER_ID_PT, 150)
         self.label_text = pg.TextItem(anchor=(0.0, 0.0), color="w",
                                       fill=pg.mkBrush(0, 0, 0, 150))
         _tight(self.label_text)
@@ -324,12 +330,7 @@ class _ObjectGraphics:
     def __init__(self, view_box: pg.ViewBox) -> None:
         self.view_box = view_box
         self.outline = pg.PlotCurveItem(antialias=True)
-        self.label_text = pg.TextItem(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 170))
-        font = QtGui.QFont()
-        font.setPointSizeF(OBJECT_LABEL_PT)
-        font.setBold(True)
-        self.label_text.setFont(font)
-        _tight(self.label_text)
+        self.label_text = _bold_label(OBJECT_LABEL_PT, 170)
         self.outline.setZValue(OBJECT_Z)
         self.label_text.setZValue(LABEL_Z)
         for item in (self.outline, self.label_text):

@@ -8,7 +8,7 @@ import pytest
 import widgets  # noqa: F401  (sets pyqtgraph's row-major image order)
 from app.gui import MIN_REDRAW_GAP_MS, REDRAW_INTERVAL_MS, MainWindow
 from app.window_draw import MAX_REDRAW_INTERVAL_MS, RedrawPacer
-from core.session import DeskSession, SessionOptions
+from tests.window.test_touch_window import make_window
 
 
 class TickingClocks:
@@ -81,12 +81,7 @@ def test_a_loop_that_keeps_up_is_not_slowed_by_contended_draws():
 
 @pytest.fixture
 def window(qtbot) -> MainWindow:
-    session = DeskSession.create(SessionOptions(camera="sim", scenario="static"))
-    w = MainWindow(session)
-    qtbot.addWidget(w)
-    w.resize(800, 480)
-    w.show()
-    qtbot.waitExposed(w)
+    w = make_window(qtbot)  # the static simulated desk at 800x480, workers not started
     yield w
     w.stop()
 
