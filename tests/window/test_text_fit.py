@@ -90,8 +90,14 @@ def sized_twin(qtbot, size: QtCore.QSize) -> ArmTwin:
 
 
 def settle(qtbot, widget: QtWidgets.QWidget) -> None:
-    """Let posted layout requests run (the legend's new height, pyqtgraph's layouts)."""
+    """Let posted layout requests run (the legend's new height, pyqtgraph's layouts): a legend's
+    new height reaches it after one or more layout passes, how many depends on Qt's version."""
+    from widgets.arm_twin_legend import LegendLabel
+
     qtbot.waitUntil(lambda: not widget.layout() or not widget.layout().isEmpty(), timeout=TIMEOUT_MS)
+    legends = [label for label in widget.findChildren(LegendLabel) if label.isVisible()]
+    qtbot.waitUntil(lambda: all(label.height() >= label.sizeHint().height() for label in legends),
+                    timeout=TIMEOUT_MS)
     QtWidgets.QApplication.processEvents()
     QtWidgets.QApplication.processEvents()
 
