@@ -43,6 +43,8 @@ from core.vision.cameras import CameraControl, ClockPacedSource, check_side
 from core.vision.stereo_calibration import BoardSpec
 
 RENDER_MARGIN_S = 0.003  # a render starts this much earlier than the slowest recent render needs
+READS_KEPT = 9  # the reader's cycle is the median gap of its last this many reads (SimStereoCamera._skips)
+SKIP_SLACK = 0.25  # of a frame period: a frame is skipped only if the reader is due this much after the next
 BOARD_POSES = 20  # poses a shown calibration board goes through (then round again)
 BOARD_HOLD_S = 1.5  # each pose is held still this long (camera clock): the wizard's gate needs still frames
 BOARD_SEED = 11  # seed of the shown board's poses (held_board_poses): the same poses every time
@@ -114,6 +116,9 @@ class SimStereoCamera(ClockPacedSource):
         self._published: Optional[StereoFrame] = None  # the newest frame of the sensor thread
         self._returned_seq = 0
         self._interrupted = False
+        self._read_at: collections.deque = collections.deque(maxlen=READS_KEPT)  # monotonic times of reads
+        self._waiting = 0  # reads waiting for a frame (guarded by _ready)
+        self.frames_skipped = 0  # frames of the wall clock's grid not rendered: nobody would have read them
 
     @property
     def name(self) -> str:
@@ -191,6 +196,7 @@ class SimStereoCamera(ClockPacedSource):
         self._next = self._t0
         self._last_key = self._last_render = None
         self._desk_key = self._desk_render = None
+        self._read_at.clear()
         if not self.clock.simulated and self.render_ahead:
             self._sensor = threading.Thread(target=self._sensor_loop, name="sim-camera", daemon=True)
             self._sensor.start()
@@ -290,6 +296,10 @@ class SimStereoCamera(ClockPacedSource):
             start = t_frame - self.render_lead_s()
             if start > now and self._stop_wait(start - now):
                 return
+            if self._skips(t_frame, period):
+                self.frames_skipped += 1
+                t_frame += period
+                continue
             frame = self._frame_at(t_frame)
             now = time.monotonic()
             if t_frame > now and self._stop_wait(t_frame - now):
@@ -299,6 +309,22 @@ class SimStereoCamera(ClockPacedSource):
                 self._next = t_frame + period
                 self._ready.notify_all()
             t_frame += period
+
+    def _skips(self, t_frame: float, period: float) -> bool:
+        """True when the frame of ``t_frame`` would never be read: no read is waiting, and the
+        reader (busy with an earlier frame) is due only after the next frame is out.
+
+        A webcam's frames that a slow loop never takes cost it nothing but their decoding; this
+        camera's are rendered, and a loop held to a Pi's CPU read one frame in five while the
+        renders of the other four took the CPU it needed (the rendered scene stays the same: the
+        frames a reader gets are those it would have got). A reader that comes earlier than its
+        recent pace waits for the next frame (at most one period)."""
+        with self._ready:
+            if self._waiting or len(self._read_at) < 3:
+                return False
+            reads = list(self._read_at)
+        cycle = float(np.median(np.diff(reads)))
+        return reads[-1] + cycle >= t_frame + period * (1.0 + SKIP_SLACK)
 
     def _stop_wait(self, seconds: float) -> bool:
         """Sleep ``seconds`` unless disconnected first (then True)."""
@@ -312,12 +338,17 @@ class SimStereoCamera(ClockPacedSource):
         if self._sensor is not None:
             with self._ready:
                 self._interrupted = False
-                self._ready.wait_for(lambda: (not self._connected or self._interrupted or (
-                    self._published is not None and self._published.seq > self._returned_seq)), timeout=1.0)
+                self._waiting += 1
+                try:
+                    self._ready.wait_for(lambda: (not self._connected or self._interrupted or (
+                        self._published is not None and self._published.seq > self._returned_seq)), timeout=1.0)
+                finally:
+                    self._waiting -= 1
                 frame = self._published
                 if not self._connected or frame is None or frame.seq <= self._returned_seq:
                     return None
                 self._returned_seq = frame.seq
+                self._read_at.append(time.monotonic())
                 return frame
         if not self.clock.wait_until(self._next) or not self._connected:
             return None

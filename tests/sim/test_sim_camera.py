@@ -138,3 +138,46 @@ def test_the_ball_finder_and_the_disparity_computer_reuse_their_answer_for_a_rep
     assert disparity.compute(again.left, again.right) is d1
     disparity.set_params(SgbmParams(num_disparities=32))  # other matchers: computed again
     assert disparity.compute(again.left, again.right) is not d1
+
+
+def test_a_frame_the_busy_reader_would_never_take_is_not_rendered_and_a_waiting_reader_always_gets_one():
+    """On a wall clock the sensor skips a frame when the reader, busy with an earlier one at its
+    recent pace, is due only after the next frame is out (issue 28: in a Pi 4's budget the loop read
+    one frame in five and the renders of the other four took its CPU)."""
+    cam = SimStereoCamera(scenario="wander", fps=30.0, clock=WallClock())
+    period = 1.0 / 30.0
+    # a reader taking 4 periods per frame, last read at 10.0 s: next due at 10.133 s
+    cam._read_at.extend([10.0 - 4 * period * k for k in (3, 2, 1, 0)])
+    assert cam._skips(10.0 + period, period)  # the frame after it is out before the reader comes
+    assert cam._skips(10.0 + 2 * period, period)
+    assert not cam._skips(10.0 + 3 * period, period)  # the newest frame when the reader comes: rendered
+    assert not cam._skips(10.0 + 4 * period, period)
+    cam._waiting = 1  # a reader waiting in read(): never skipped, whatever its pace was
+    assert not cam._skips(10.0 + period, period)
+    cam._waiting = 0
+    fast = SimStereoCamera(scenario="wander", fps=30.0, clock=WallClock())
+    fast._read_at.extend([10.0 + period * k for k in range(5)])  # a reader keeping up: every frame
+    assert not any(fast._skips(10.0 + period * k, period) for k in range(5, 12))
+    fresh = SimStereoCamera(scenario="wander", fps=30.0, clock=WallClock())
+    fresh._read_at.extend([10.0, 11.0])  # too few reads to know a pace: rendered
+    assert not fresh._skips(10.0 + period, period)
+
+
+def test_a_slow_reader_on_a_wall_clock_still_gets_fresh_frames_in_order():
+    """A reader slower than the camera (it works on each frame for four periods) is
+    handed frames in order, never before their time, and frames are skipped, not piled up."""
+    cam = SimStereoCamera(scenario="wander", fps=30.0, clock=WallClock())
+    cam.connect()
+    try:
+        frames = []
+        for _ in range(8):
+            f = cam.read()
+            got = cam.clock.now()
+            assert f is not None and f.t <= got
+            frames.append(f)
+            # busy with the frame for four periods (a slow loop, paced on the camera's clock)
+            cam.clock.wait_until(got + 4.0 / cam.fps)
+        assert all(b.t > a.t for a, b in zip(frames, frames[1:]))
+        assert cam.frames_skipped > 0
+    finally:
+        cam.disconnect()
