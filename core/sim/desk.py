@@ -67,6 +67,7 @@ DESK_MAX_TEXTURE_PX = 2048
 WALL_COLOUR = (150, 155, 158)  # above the horizon (only with rigs that look that far up)
 
 SUPERSAMPLE = 4  # marker patches are warped at 4× and area-averaged (anti-aliased edges)
+THING_CACHE = 256  # still things' items (per view) and shadows kept (SimDesk._cached_thing_item)
 MARKER_PATCH_CACHE = 32  # warped marker patches kept for markers that lie still (SimDesk._composite_marker)
 MARKER_PX_PER_CELL = 16  # marker texture resolution (8 cells + white border → 160 px wide)
 MARKER_BORDER_CELLS = 1.0  # white quiet zone around the black border, in marker cells
@@ -353,6 +354,14 @@ class ImageBox:
 class _Shape:
     pts: np.ndarray  # (M, 2) image px
     colour: tuple
+    fixed: Optional[np.ndarray] = field(default=None, repr=False, compare=False)  # pts in fillPoly's 1/16 px, made once
+
+    def fill(self, img: np.ndarray) -> None:
+        """``_fill(img, pts, colour)`` (anti-aliased), the fixed-point outline kept for the next
+        frame (a still thing's item is drawn again every frame)."""
+        if self.fixed is None:
+            self.fixed = np.round(self.pts * 16.0).astype(np.int32)
+        cv2.fillPoly(img, [self.fixed], self.colour, lineType=cv2.LINE_AA, shift=4)
 
 
 @dataclass
@@ -371,6 +380,8 @@ class _Item:
     target_corners: Optional[np.ndarray] = None  # image px points that must be inside the image
     occluder: bool = True
     flat: bool = False  # lies on the desk: painted before the shadows and every solid item
+    # what it covers, as SimDesk._visibility needs it (made on first use; a cached thing's is kept)
+    cover: Optional[tuple] = field(default=None, repr=False, compare=False)
 
 
 def _fill(img: np.ndarray, pts: np.ndarray, colour, aa: bool = True) -> None:
@@ -546,6 +557,11 @@ class SimDesk:
         self._blur_ksize = (k, k)
         self._dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
         self._views = {side: _View(rig, side, self.seed) for side in SIDES}
+        # a still thing's item in each rig view and its shadow, made once: building them was a third
+        # of a render of the objects scene, where only the arm moves (render_camera's views are new
+        # each call: not cached). Keyed by the frozen Thing, so a moved thing is made again.
+        self._thing_items: dict[int, dict] = {id(view): {} for view in self._views.values()}
+        self._thing_shadows: dict = {}
         self._extent: Optional[tuple] = None  # desk texture extent for render_camera (the rig's, made on first use)
         # the printed square: black marker + white quiet zone (m)
         self._paper_m = self.marker_size_m * (8 + 2 * MARKER_BORDER_CELLS) / 8
@@ -848,6 +864,18 @@ class SimDesk:
         return _Item(depth=depth, shapes=shapes, lines=lines, target=th.truth_id, target_region=hull,
                      target_corners=hull)
 
+    def _cached_thing_item(self, view: _View, th: Thing) -> _Item:
+        """``_thing_item``, made once per rig view and thing (items are never changed once made)."""
+        cache = self._thing_items.get(id(view))
+        if cache is None:
+            return self._thing_item(view, th)
+        item = cache.get(th)
+        if item is None:
+            if len(cache) >= THING_CACHE:
+                cache.clear()  # things that moved: their old items will not come back
+            item = cache[th] = self._thing_item(view, th)
+        return item
+
     def _thing_item(self, view: _View, th: Thing) -> _Item:
         if th.kind == "ball":
             spot = tuple(float(v + HIGHLIGHT_MIX * (255 - v)) for v in th.colour)
@@ -1042,7 +1070,12 @@ class SimDesk:
                                     c[1] + BALL_RADIUS_M * _CIRCLE32[:, 1] * 1.3, np.zeros(len(_CIRCLE32))])
             polys.append(circ)
         for th in st.things:
-            polys.append(self._thing_shadow(th, on_desk))
+            shadow = self._thing_shadows.get(th)
+            if shadow is None:
+                if len(self._thing_shadows) >= THING_CACHE:
+                    self._thing_shadows.clear()
+                shadow = self._thing_shadows[th] = self._thing_shadow(th, on_desk)
+            polys.append(shadow)
         for panel in st.panels:  # the plate (the buttons' shadows fall on it and are left out)
             hw, hl = panel.width_m / 2, panel.length_m / 2
             local = np.array([[-hw, hl], [hw, hl], [hw, -hl], [-hw, -hl]])
@@ -1121,7 +1154,7 @@ class SimDesk:
             ball_cup = next((c for c in st.cups if c.lift > 0.001), None) if st.cups else None
             if ball_cup is not None or not st.cups:  # under a resting cup it cannot be seen
                 solid.append(self._ball_item(view, st.ball.x, st.ball.y))
-        solid += [self._thing_item(view, th) for th in st.things]
+        solid += [self._cached_thing_item(view, th) for th in st.things]
         for panel in st.panels:
             solid += self._panel_items(view, panel)
         solid += [self._handle_item(view, hd) for hd in st.handles]
@@ -1147,14 +1180,16 @@ class SimDesk:
         # computed once (with a dozen targets the pairwise tests dominated the render)
         covers: list = []
         for it in items:
-            polys = self._silhouettes(it) if it.occluder else []
-            bounded = [(pts, pts.min(axis=0), pts.max(axis=0)) for pts in polys]
-            if bounded:
-                lo = np.min([b[1] for b in bounded], axis=0)
-                hi = np.max([b[2] for b in bounded], axis=0)
-                covers.append((bounded, lo, hi))
-            else:
-                covers.append(None)
+            if it.cover is None:
+                polys = self._silhouettes(it) if it.occluder else []
+                bounded = [(pts, pts.min(axis=0), pts.max(axis=0)) for pts in polys]
+                if bounded:
+                    lo = np.min([b[1] for b in bounded], axis=0)
+                    hi = np.max([b[2] for b in bounded], axis=0)
+                    it.cover = ((bounded, lo, hi),)
+                else:
+                    it.cover = (None,)
+            covers.append(it.cover[0])
         for idx, it in enumerate(items):
             if it.target is None:
                 continue
@@ -1373,7 +1408,7 @@ class SimDesk:
             if idx == n_flat:
                 self._draw_shadows(img, view, shadows3)
             for sh in it.shapes:
-                _fill(img, sh.pts, sh.colour)
+                sh.fill(img)
             for pts, colour, closed in it.lines:
                 cv2.polylines(img, [np.round(pts * 16.0).astype(np.int32)], closed, colour, 1,
                               lineType=cv2.LINE_AA, shift=4)

@@ -338,3 +338,23 @@ def test_truth_without_rendering_matches_the_rendered_truth(rig):
 def test_bad_arm_points_are_refused(rig):
     with pytest.raises(ValueError, match=r"\(N, 3\)"):
         SimDesk(rig, "static").render(0.0, np.zeros((4, 2)))
+
+
+def test_a_still_things_item_and_shadow_are_made_once_and_the_renders_stay_those_of_a_fresh_desk(rig, monkeypatch):
+    """The objects scene's still things are built once per view (issue 28: their items and shadows
+    were a third of a render where only the arm moves); moving things and the arm are built anew,
+    and every render equals that of a desk that never rendered before."""
+    desk = SimDesk(rig, scenario="objects", seed=0)
+    made, real = [], SimDesk._thing_item
+    monkeypatch.setattr(SimDesk, "_thing_item", lambda self, view, th: made.append(th) or real(self, view, th))
+    times = [0.0, 0.4, 0.8, 1.2]
+    for k, t in enumerate(times):
+        arm = ARM + 0.01 * k
+        left, right, truth = desk.render(t, arm)
+        fresh = SimDesk(rig, scenario="objects", seed=0).render(t, arm)
+        assert np.array_equal(left, fresh[0]) and np.array_equal(right, fresh[1]) and truth == fresh[2]
+    scenes = [desk.scene(t).things for t in times]
+    still = [th for th in scenes[0] if all(th in s for s in scenes)]
+    assert len(still) >= 3  # the scene has still things (and moving ones)
+    for th in still:
+        assert made.count(th) == 2 + 2 * len(times)  # once per view here, and once per view in each fresh desk
