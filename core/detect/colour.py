@@ -125,6 +125,26 @@ class HsvParams:
         check_range("hsv", "max_objects", self.max_objects, 1, 1000)
 
 
+def _bit_luts(colours: tuple[HsvRange, ...]) -> list[tuple[int, np.ndarray]]:
+    """Per group of 8 colours (first index, 1x256x3 table): bit k of entry [h, s, v] of channel 0, 1,
+    2 is set when h, s, v lies in colour first + k's hue (wrapping), saturation, value range; a
+    pixel whose three looked-up channels all have bit k is exactly where ``HsvRange.mask`` is 255."""
+    out = []
+    for first in range(0, len(colours), 8):
+        lut = np.zeros((1, 256, 3), np.uint8)
+        for k, c in enumerate(colours[first:first + 8]):
+            bit = np.uint8(1 << k)
+            if c.wraps:
+                lut[0, c.h_lo:HUE_MAX + 1, 0] |= bit
+                lut[0, :c.h_hi + 1, 0] |= bit
+            else:
+                lut[0, c.h_lo:c.h_hi + 1, 0] |= bit
+            lut[0, c.s_lo:c.s_hi + 1, 1] |= bit
+            lut[0, c.v_lo:c.v_hi + 1, 2] |= bit
+        out.append((first, lut))
+    return out
+
+
 def _kernel(size: int) -> Optional[np.ndarray]:
     return None if size <= 1 else cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
 
@@ -149,6 +169,7 @@ class HsvDetector(BaseDetector):
         # 2·(open radius + close radius) px (their erosions, at the region's edge, must see only
         # pixels that are 0 in the whole image too), and the outlines need a row of 0 around them
         self._margin = p.open_px + p.close_px + 2
+        self._luts = _bit_luts(p.colours)
 
     def masks(self, image_bgr: np.ndarray) -> dict[str, np.ndarray]:
         """Each colour's cleaned mask (after opening and closing) of a whole image, by name."""
@@ -173,21 +194,31 @@ class HsvDetector(BaseDetector):
         hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
         h_img, w_img = hsv.shape[:2]
         out = {}
-        for colour in self._params.colours:
-            mask = colour.mask(hsv)
-            x, y, w, h = cv2.boundingRect(mask)  # of the non-zero pixels; 0 wide when there are none
-            if w == 0 or h == 0:
-                out[colour.name] = (mask[:0, :0], 0, 0)
-                continue
-            m = self._margin
-            x0, y0, x1, y1 = max(x - m, 0), max(y - m, 0), min(x + w + m, w_img), min(y + h + m, h_img)
-            region = mask[y0:y1, x0:x1]
-            if self._open is not None:
-                region = cv2.morphologyEx(region, cv2.MORPH_OPEN, self._open)
-            if self._close is not None:
-                region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, self._close)
-            out[colour.name] = (region, x0, y0)
+        colours = self._params.colours
+        for first, lut in self._luts:
+            # bit k of ``bits``: the pixel is in colour first + k's range (all 8 colours of a group in
+            # one table look-up and two ANDs instead of 8 inRange passes over the image)
+            h_bits, s_bits, v_bits = cv2.split(cv2.LUT(hsv, lut))
+            bits = cv2.bitwise_and(cv2.bitwise_and(h_bits, s_bits), v_bits)
+            for k, colour in enumerate(colours[first:first + 8]):
+                mask = cv2.bitwise_and(bits, 1 << k)  # 1 << k where in range, else 0
+                x, y, w, h = cv2.boundingRect(mask)  # of the non-zero pixels; 0 wide when there are none
+                if w == 0 or h == 0:
+                    out[colour.name] = (mask[:0, :0], 0, 0)
+                    continue
+                m = self._margin
+                x0, y0, x1, y1 = max(x - m, 0), max(y - m, 0), min(x + w + m, w_img), min(y + h + m, h_img)
+                _, region = cv2.threshold(mask[y0:y1, x0:x1], 0, 255, cv2.THRESH_BINARY)
+                out[colour.name] = self._cleaned(region, x0, y0)
         return out
+
+    def _cleaned(self, region: np.ndarray, x0: int, y0: int) -> tuple[np.ndarray, int, int]:
+        """A colour's region mask (255 in range) opened and closed: (mask, x0, y0)."""
+        if self._open is not None:
+            region = cv2.morphologyEx(region, cv2.MORPH_OPEN, self._open)
+        if self._close is not None:
+            region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, self._close)
+        return region, x0, y0
 
     def _detect(self, image: np.ndarray) -> list[Detection]:
         p = self._params

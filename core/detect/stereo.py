@@ -198,23 +198,24 @@ def blob_centre(image: Optional[np.ndarray], d: Detection, grow_px: int = 2) -> 
     ring = cv2.dilate(outside, _K3, iterations=2) & ~outside
     if cv2.countNonZero(inner) < 8 or cv2.countNonZero(ring) < 8:
         return area_centre
-    patch = image[lo[1]:hi[1], lo[0]:hi[0]].astype(np.float32)
-    fg = patch[inner > 0].mean(axis=0)
-    bg = patch[ring > 0].mean(axis=0)
+    # OpenCV's masked means, affine transform and moments instead of numpy's boolean indexing,
+    # matrix product and sums: the same figures (to float rounding) in a fifth of the time
+    patch = image[lo[1]:hi[1], lo[0]:hi[0]]
+    fg = np.array(cv2.mean(patch, mask=inner)[:3])
+    bg = np.array(cv2.mean(patch, mask=ring)[:3])
     span = fg - bg
     n2 = float(span @ span)
     if n2 < 20.0 ** 2:
         return area_centre
-    w = np.clip(((patch - bg) @ span) / n2, 0.0, 1.0)
+    # w = (pixel − bg)·span / |span|², clipped to 0…1: 1 inside, 0 outside ``near``
+    w = cv2.transform(patch.astype(np.float32), (np.append(span, -float(bg @ span)) / n2).reshape(1, 4))
+    np.clip(w, 0.0, 1.0, out=w)
     w[near == 0] = 0.0
     w[inner > 0] = 1.0
-    total = float(w.sum())
-    if total <= 0:
+    m = cv2.moments(w)
+    if m["m00"] <= 0:
         return area_centre
-    # the weighted centroid from the row and column sums (not from two whole coordinate grids)
-    cx = float(w.sum(axis=0, dtype=np.float64) @ np.arange(w.shape[1], dtype=np.float64))
-    cy = float(w.sum(axis=1, dtype=np.float64) @ np.arange(w.shape[0], dtype=np.float64))
-    return (float(lo[0] + cx / total), float(lo[1] + cy / total))
+    return (float(lo[0] + m["m10"] / m["m00"]), float(lo[1] + m["m01"] / m["m00"]))
 
 
 def _point(p) -> tuple[float, float, float]:
@@ -254,6 +255,10 @@ class _ObjectTrack:
         self.view: dict[str, Optional[tuple]] = {side: None for side in SIDES}
         self.extent: dict[str, collections.deque] = {side: collections.deque(maxlen=EXTENT_HISTORY) for side in SIDES}
         self.trackers: dict[str, object] = {side: None for side in SIDES}  # ObjectTracker per view
+        # per view: the last image velocity and size with what they came from (the deques' end items,
+        # held so that their identity stays theirs): a frame asks for them a few dozen times
+        self._velocity_memo: dict[str, tuple] = {}
+        self._size_memo: dict[str, tuple] = {}
 
     @property
     def confirmed(self) -> bool:
@@ -282,13 +287,28 @@ class _ObjectTrack:
         return self._velocity(self.left_hist), self._velocity(self.right_hist)
 
     def image_velocity(self, side: str) -> Optional[np.ndarray]:
-        return self._velocity(self.left_hist if side == "left" else self.right_hist)
+        """``side``'s image velocity (px/s, see _velocity); computed again only when its history
+        changed (the deques only append, pop and clear: same length and same end items, same content)."""
+        hist = self.left_hist if side == "left" else self.right_hist
+        if len(hist) < 2:
+            return None
+        memo = self._velocity_memo.get(side)
+        if memo is not None and memo[0] is hist[0] and memo[1] is hist[-1] and memo[2] == len(hist):
+            return memo[3]
+        velocity = self._velocity(hist)
+        self._velocity_memo[side] = (hist[0], hist[-1], len(hist), velocity)
+        return velocity
 
     def size(self, side: str) -> Optional[tuple[float, float]]:
         """The object's box size (w, h) in ``side``: the largest of its recent whole detections."""
         sizes = self.extent[side]
         if sizes:
-            return max(w for w, _ in sizes), max(h for _, h in sizes)
+            memo = self._size_memo.get(side)
+            if memo is not None and memo[0] is sizes[0] and memo[1] is sizes[-1] and memo[2] == len(sizes):
+                return memo[3]
+            size = (max(w for w, _ in sizes), max(h for _, h in sizes))
+            self._size_memo[side] = (sizes[0], sizes[-1], len(sizes), size)
+            return size
         v = self.view[side]
         return None if v is None else (v[3], v[4])
 

@@ -256,3 +256,75 @@ def test_a_tracker_box_is_re_placed_where_the_other_views_patch_matches():
     assert abs(found[0] - (left_cx - disparity)) < 0.15 and abs(found[1] - 120.0) < 0.15, found
     # a patch that is not there (the other view shows only the desk) moves nothing
     assert stereo_matched_centre(left, det(left_cx), ball_at(-100.0), off_by_3) is None
+
+
+def test_blob_centre_equals_the_plain_weighted_centroid():
+    """blob_centre's OpenCV formulation (masked means, affine transform, moments) gives the plain
+    numpy one's centres: anti-aliased discs and ellipses of every size, on textured backgrounds."""
+    from core.detect import stereo
+
+    def plain(image, d, grow_px=2):
+        pts = np.round(d.contour).astype(np.int32)
+        pad = grow_px + 4
+        lo, hi = pts.min(axis=0) - pad, pts.max(axis=0) + pad + 1
+        mask = np.zeros((int(hi[1] - lo[1]), int(hi[0] - lo[0])), np.uint8)
+        cv2.drawContours(mask, [(pts - lo).reshape(-1, 1, 2)], 0, 255, -1)
+        k3 = stereo._K3
+        inner = cv2.erode(mask, k3, iterations=2)
+        near = cv2.dilate(mask, k3, iterations=grow_px)
+        ring = cv2.dilate(mask, k3, iterations=grow_px + 3) & ~cv2.dilate(mask, k3, iterations=grow_px + 1)
+        patch = image[lo[1]:hi[1], lo[0]:hi[0]].astype(np.float64)
+        fg, bg = patch[inner > 0].mean(axis=0), patch[ring > 0].mean(axis=0)
+        span = fg - bg
+        w = np.clip(((patch - bg) @ span) / float(span @ span), 0.0, 1.0)
+        w[near == 0] = 0.0
+        w[inner > 0] = 1.0
+        ys, xs = np.mgrid[0:w.shape[0], 0:w.shape[1]]
+        return lo[0] + (w * xs).sum() / w.sum(), lo[1] + (w * ys).sum() / w.sum()
+
+    rng = np.random.default_rng(7)
+    det = HsvDetector(HsvParams(colours=DEFAULT_COLOURS))
+    compared = 0
+    for _ in range(6):
+        img = cv2.GaussianBlur(rng.integers(60, 140, (240, 320, 3), np.uint8), (0, 0), 2)
+        for colour in BGR.values():
+            c = (int(rng.uniform(40, 280) * 16), int(rng.uniform(40, 200) * 16))
+            axes = (int(rng.uniform(6, 30) * 16), int(rng.uniform(6, 30) * 16))
+            cv2.ellipse(img, c, axes, float(rng.uniform(0, 180)), 0, 360, colour, -1, cv2.LINE_AA, 4)
+        for d in det.detect(img):
+            got, want = stereo.blob_centre(img, d), plain(img, d)
+            assert abs(got[0] - want[0]) < 1e-3 and abs(got[1] - want[1]) < 1e-3, (d.label, got, want)
+            compared += 1
+    assert compared >= 12
+
+
+def test_a_tracks_remembered_size_and_image_velocity_follow_every_new_view():
+    """A track keeps its size and image velocity between the many calls of one frame, and gives
+    new ones as soon as a view is noted or its history changes (never a stale answer)."""
+    from core.detect.base import Detection
+    from core.detect.stereo import _ObjectTrack
+
+    track = _ObjectTrack(1, "colour", "red", kalman=None, history=5)
+
+    def seen(t, x, w):
+        d = Detection(kind="colour", label="red", score=1.0, box=(x, 50.0, w, w), centre_px=(x + w / 2, 50 + w / 2))
+        track.note_view("left", t, d, whole=True)
+        track.left_hist.append((t, x + w / 2, 50 + w / 2))
+
+    seen(0.0, 100.0, 20.0)
+    assert track.size("left") == (20.0, 20.0) and track.image_velocity("left") is None
+    seen(0.1, 110.0, 24.0)
+    assert track.size("left") == (24.0, 24.0)
+    assert np.allclose(track.image_velocity("left"), (120.0, 20.0))  # px/s: centre 110 → 122, 60 → 62
+    assert track.size("left") == track.size("left") and track.image_velocity("left") is track.image_velocity("left")
+    seen(0.2, 130.0, 22.0)  # faster; smaller than the largest of the recent sizes
+    assert track.size("left") == (24.0, 24.0)
+    assert track.image_velocity("left")[0] > 120.0
+    track.left_hist.clear()
+    track.left_hist.extend([(0.0, 10.0, 0.0), (0.1, 10.0, 0.0)])
+    assert np.allclose(track.image_velocity("left"), (0.0, 0.0))
+    for _ in range(5):  # a full deque: appending drops the oldest, same length, new ends
+        seen(track.left_hist[-1][0] + 0.1, 130.0, 22.0)
+    assert np.allclose(track.image_velocity("left"), (0.0, 0.0))
+    seen(track.left_hist[-1][0] + 0.1, 140.0, 22.0)
+    assert track.image_velocity("left")[0] > 0.0
