@@ -38,7 +38,12 @@ What each (case, budget) measures, in the same run as the unthrottled figures:
   the hand-camera frames it is handed per second (its loop has no frame → bytes figure).
 
 Cases: ``markers`` (``--scenario wander``, the arm following a marker), ``hsv`` and ``desk``
-(``--scenario objects --detector hsv|desk``) and ``assist``. The issue's goal in the Pi 4 budget:
+(``--scenario objects --detector hsv|desk``) and ``assist``; with ``--full`` or ``--cases`` also
+``hsv-roi``/``desk-roi`` (``--object-roi``) and ``hsv-replay``/``desk-replay``: a user with real
+webcams — the objects scene recorded once in the run (``make_recording``: ``deskarm --headless
+--fast --record``) and replayed (``--camera replay:PATH``) at its 30 fps, so each frame costs a
+JPEG decoding per view instead of the simulator's rendering. The table's ``camera`` column says
+which rows are which. The issue's goal in the Pi 4 budget:
 30 fps with markers, ≥ 15 fps with one object detector, start-up to the first frame ≤ 5 s.
 
 Run alone: ``python -m bench.bench_pi [--quick|--full] [--root DIR] [--cases markers,hsv]
@@ -68,14 +73,21 @@ CASES: dict[str, list[str]] = {
     "desk": ["--camera", "sim", "--scenario", "objects", "--detector", "desk"],
     "assist": ["--assist"],
 }
-# not in the default run (it stays under 3 minutes): --cases hsv-roi,desk-roi or --full
+RECORDING = "{recording}"  # in a case's arguments: the run's recording (make_recording), made once per run
+# not in the default run (it stays under 3 minutes): --cases hsv-roi,desk-roi,hsv-replay,desk-replay or --full
 EXTRA_CASES: dict[str, list[str]] = {
     "hsv-roi": [*CASES["hsv"], "--object-roi"],  # detect around the tracked objects between full searches
     "desk-roi": [*CASES["desk"], "--object-roi"],
+    # a user with real webcams: the objects scene recorded once (JPEG pairs), replayed at its
+    # recorded 30 fps, so JPEG decoding takes the place of the simulator's rendering
+    "hsv-replay": ["--camera", f"replay:{RECORDING}", "--detector", "hsv"],
+    "desk-replay": ["--camera", f"replay:{RECORDING}", "--detector", "desk"],
 }
 ALL_CASES = {**CASES, **EXTRA_CASES}
+RECORD_EXTRA_S = 30.0  # the recording outlasts the window's sampling by this (start-up in the Pi 4 budget, warm-up)
 WINDOW_SIZE = "800x480"
-GOALS = {"markers": 30.0, "hsv": 15.0, "desk": 15.0, "hsv-roi": 15.0, "desk-roi": 15.0}  # fps wanted in the Pi 4 budget (issue 28)
+GOALS = {"markers": 30.0, "hsv": 15.0, "desk": 15.0, "hsv-roi": 15.0, "desk-roi": 15.0,  # fps wanted in the
+         "hsv-replay": 15.0, "desk-replay": 15.0}  # Pi 4 budget (issue 28)
 FIRST_FRAME_GOAL_S = 5.0
 SPAWN_ENV = "DESKARM_BENCH_SPAWN_T"  # the parent's time.time() just before the spawn
 POLL_MS = 5
@@ -128,15 +140,54 @@ def _last_json(run: dict, what: str) -> dict:
     return json.loads(lines[-1])
 
 
-def measure_window(case: str, budget: Optional[float], seconds: float, root: Path = REPO) -> dict:
+def source_of(case: str) -> str:
+    """What a case's camera is: "sim" (the simulator renders each frame in the process), "replay"
+    (a recording's JPEG pairs, decoded as a webcam's MJPEG frames are) or "hand sim" (the assistive view)."""
+    if case == "assist":
+        return "hand sim"
+    return "replay" if any(RECORDING in a for a in ALL_CASES[case]) else "sim"
+
+
+def case_argv(case: str, recording: Optional[Path] = None) -> list[str]:
+    """``case``'s deskarm arguments, the run's recording put in (ValueError when it needs one and has none)."""
+    argv = ALL_CASES[case]
+    if source_of(case) == "replay":
+        if recording is None:
+            raise ValueError(f"pi bench case {case} replays a recording: make one first (make_recording)")
+        argv = [a.replace(RECORDING, str(recording)) for a in argv]
+    return list(argv)
+
+
+def make_recording(path: Path, seconds: float, root: Path = REPO) -> dict:
+    """Record the objects scene (``deskarm --headless --fast --record PATH --scenario objects``,
+    the simulated clock: 30 fps of camera time as fast as this machine renders it) for the replay
+    cases; the runner's JSON. Made without a quota: it is the camera, not what is measured."""
+    from bench.cpu_quota import CpuQuota
+
+    argv = [sys.executable, "-m", "app.cli", "--headless", "--fast", "--json", "--duration", f"{seconds:g}",
+            "--camera", "sim", "--scenario", "objects", "--record", str(path)]
+    with CpuQuota(None, "recording") as quota:
+        run = _run(argv, quota, root, 20 * seconds + 120)
+    r = _last_json(run, "recording for the replay cases")
+    if r.get("record_error") or not r.get("frames_recorded"):
+        raise RuntimeError(f"pi bench recording {path} failed: {r.get('record_error')}; {run['err'].strip()[-800:]}")
+    return r
+
+
+def measure_window(case: str, budget: Optional[float], seconds: float, root: Path = REPO,
+                   recording: Optional[Path] = None) -> dict:
     """One window child of ``case`` in a group of ``budget`` cores (None: no quota); its JSON."""
     from bench.cpu_quota import CpuQuota  # the parent's (the child imports deskarm from root)
 
-    argv = [sys.executable, str(SCRIPT), "--child", "window", "--seconds", f"{seconds:g}", "--", *ALL_CASES[case]]
+    argv = [sys.executable, str(SCRIPT), "--child", "window", "--seconds", f"{seconds:g}", "--",
+            *case_argv(case, recording)]
     with CpuQuota(budget, f"{case}-window") as quota:
         run = _run(argv, quota, root, FIRST_FRAME_TIMEOUT_S + WARMUP_S + 3 * seconds + 60)
         stats = quota.stats()
     r = _last_json(run, f"window child {case} (budget {budget})")
+    if r.get("camera_finished") and not r.get("loop_fps"):
+        raise RuntimeError(f"pi bench window child {case} (budget {budget}): the recording ended before "
+                           f"the samples (first frame at {r.get('first_frame_s')} s): record longer")
     if r.get("timed_out") or r.get("first_frame_s") is None:
         raise RuntimeError(f"pi bench window child {case} (budget {budget}) saw no frame: {r}; "
                            f"{run['err'].strip()[-800:]}")
@@ -147,12 +198,14 @@ def measure_window(case: str, budget: Optional[float], seconds: float, root: Pat
     return r
 
 
-def measure_headless(case: str, budget: Optional[float], seconds: float, root: Path = REPO) -> dict:
+def measure_headless(case: str, budget: Optional[float], seconds: float, root: Path = REPO,
+                     recording: Optional[Path] = None) -> dict:
     """``deskarm --headless --json`` of ``case`` in a group of ``budget`` cores; the runner's JSON
     with the group's throttling counters and the child's wall seconds (start-up included) added."""
     from bench.cpu_quota import CpuQuota
 
-    argv = [sys.executable, "-m", "app.cli", "--headless", "--json", "--duration", f"{seconds:g}", *ALL_CASES[case]]
+    argv = [sys.executable, "-m", "app.cli", "--headless", "--json", "--duration", f"{seconds:g}",
+            *case_argv(case, recording)]
     with CpuQuota(budget, f"{case}-headless") as quota:
         run = _run(argv, quota, root, 3 * seconds + 180)
         stats = quota.stats()
@@ -167,17 +220,26 @@ def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None)
     ``headless`` (None for the assistive view). Budgets interleave within a case (same run, same load)."""
     from bench.cpu_quota import CpuQuotaUnavailable, available
 
+    cases = list(cases or (ALL_CASES if not quick else CASES))
+    unknown = [c for c in cases if c not in ALL_CASES]
+    if unknown:
+        raise ValueError(f"pi bench cases {', '.join(unknown)} unknown; known: {', '.join(ALL_CASES)}")
     why = available()
     if why:
         raise CpuQuotaUnavailable(f"pi budget bench unavailable: {why}")
     window_s, headless_s = durations(quick)
     out = []
-    for case in cases or (ALL_CASES if not quick else CASES):
-        for name, fraction in budgets or PI_BUDGETS:
-            w = measure_window(case, fraction, window_s, root)
-            h = None if case == "assist" else measure_headless(case, fraction, headless_s, root)
-            out.append({"case": case, "budget": name, "fraction": fraction, "window": w, "headless": h,
-                        "load": os.getloadavg()[0]})
+    with tempfile.TemporaryDirectory(prefix="deskarm-bench-recording-") as folder:
+        recording = None
+        if any(source_of(c) == "replay" for c in cases):
+            recording = Path(folder) / "objects"
+            make_recording(recording, max(window_s, headless_s) + RECORD_EXTRA_S, root)
+        for case in cases:
+            for name, fraction in budgets or PI_BUDGETS:
+                w = measure_window(case, fraction, window_s, root, recording)
+                h = None if case == "assist" else measure_headless(case, fraction, headless_s, root, recording)
+                out.append({"case": case, "budget": name, "fraction": fraction, "window": w, "headless": h,
+                            "load": os.getloadavg()[0], "source": source_of(case)})
     return out
 
 
@@ -204,7 +266,7 @@ def results_to_rows(results: list[dict]) -> list[dict]:
         loop = "hand-camera frames/s" if case == "assist" else "loop fps (window)"
         rows.append({"name": f"{tag}: {loop}", "unit": "", "samples": w["loop_fps"] or [0.0],
                      "baseline": None if base is None else f"{base}: {loop}", "less": "fewer",
-                     "extra": f"{quota}; drawn {_med(w['drawn_fps']):.1f} fps; load {r['load']:.1f}; throttled "
+                     "extra": f"{quota}; {r.get('source') or source_of(case)} camera; drawn {_med(w['drawn_fps']):.1f} fps; load {r['load']:.1f}; throttled "
                               f"{w['throttled'].get('nr_throttled', 0)}/{w['throttled'].get('nr_periods', 0)} periods"})
         if w["latency_ms"]:
             rows.append({"name": f"{tag}: frame->command latency (window)", "unit": "ms", "samples": w["latency_ms"],
@@ -236,10 +298,10 @@ def cpu_ms_per_frame(w: dict) -> float:
 def pi_table(results: list[dict]) -> str:
     """The compact table for the issue and the README: one line per case and budget (``ms/frame``:
     ``cpu_ms_per_frame``)."""
-    head = (f"{'case':8s} {'budget':12s} {'loop fps':>8s} {'drawn':>6s} {'lat p50/p95 ms':>15s} {'CPU %':>6s} "
+    head = (f"{'case':11s} {'camera':8s} {'budget':12s} {'loop fps':>8s} {'drawn':>6s} {'lat p50/p95 ms':>15s} {'CPU %':>6s} "
             f"{'ms/frame':>8s} {'1st frame s':>11s} {'headless fps':>12s} {'lat p50/p95 ms':>15s}  goal (Pi 4)")
     lines = [head, "-" * len(head)]
-    for r in results:
+    for r in results:  # camera: sim = the simulator renders in the process; replay = JPEG pairs decoded
         w, h, case = r["window"], r["headless"], r["case"]
         lat = (f"{_med(w['latency_ms']):.0f}/{_pct(w['latency_ms'], 95):.0f}" if w["latency_ms"] else "—")
         hfps = f"{h['fps']:.1f}" if h else "—"
@@ -251,9 +313,11 @@ def pi_table(results: list[dict]) -> str:
             ok_start = w["first_frame_s"] <= FIRST_FRAME_GOAL_S
             goal = (("" if fps_goal is None else f"{fps_goal:g} fps {'met' if ok_fps else 'MISSED'}, ")
                     + f"first frame ≤ {FIRST_FRAME_GOAL_S:g} s {'met' if ok_start else 'MISSED'}")
-        lines.append(f"{case:8s} {r['budget']:12s} {_med(w['loop_fps']):8.1f} {_med(w['drawn_fps']):6.1f} "
+        lines.append(f"{case:11s} {r.get('source') or source_of(case):8s} {r['budget']:12s} {_med(w['loop_fps']):8.1f} {_med(w['drawn_fps']):6.1f} "
                      f"{lat:>15s} {_med(w['cpu_pct']):6.0f} {cpu_ms_per_frame(w):8.1f} {w['first_frame_s']:11.2f} "
                      f"{hfps:>12s} {hlat:>15s}  {goal}")
+    lines.append("camera: sim = the simulator renders both views in the process (its cost is in the figures); "
+                 "replay = a recording of the same scene, JPEG pairs decoded as a webcam's MJPEG frames are")
     return "\n".join(lines)
 
 
@@ -338,6 +402,12 @@ def child_window(seconds: float, app_argv: list[str]) -> int:
     def sample() -> None:
         w = st["w"]
         if counts["loop"] == last["loop"]:
+            camera = getattr(getattr(w, "session", None), "camera", None)
+            if camera is not None and getattr(camera, "finished", False):  # a replay that ended: no frame will come
+                seen["camera_finished"] = True
+                sampler.stop()
+                st["sampling"] = False
+                finish()
             return  # no frame in this sample yet (a starved process): it lasts until one comes
         wall, cpu, gui = time.perf_counter(), time.process_time(), time.thread_time()
         dt = wall - last["wall"]

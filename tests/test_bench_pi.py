@@ -110,3 +110,32 @@ def test_a_machine_without_a_cpu_controller_skips_the_bench_like_a_missing_extra
         bench_pi.rows(quick=True)
     with pytest.raises(cpu_quota.CpuQuotaError):
         cpu_quota.CpuQuota(0.5, root=tmp_path)
+
+
+def test_replay_cases_name_their_recording_and_the_table_says_which_camera_each_row_had():
+    assert bench_pi.source_of("hsv") == "sim" and bench_pi.source_of("hsv-replay") == "replay"
+    assert bench_pi.source_of("assist") == "hand sim"
+    argv = bench_pi.case_argv("desk-replay", Path("/tmp/rec"))
+    assert argv[argv.index("--camera") + 1] == "replay:/tmp/rec" and "--detector" in argv
+    with pytest.raises(ValueError, match="make one first"):
+        bench_pi.case_argv("hsv-replay")
+    assert bench_pi.case_argv("hsv") == bench_pi.ALL_CASES["hsv"]
+    with pytest.raises(ValueError, match="unknown"):
+        bench_pi.measure_all(cases=["hsv-webcam"])
+
+
+@needs_cgroup
+def test_a_replay_case_runs_on_a_recording_made_in_the_same_run(tmp_path):
+    """The replay cases stand for webcams: a recording of the objects scene, made first, is what
+    the headless loop and the window read (JPEG pairs decoded instead of renders)."""
+    recording = tmp_path / "objects"
+    made = bench_pi.make_recording(recording, 25.0)  # outlasts the window's start-up, warm-up and sample
+    assert made["frames_recorded"] > 0 and recording.is_dir()
+    h = bench_pi.measure_headless("hsv-replay", None, 1.0, recording=recording)
+    assert h["frames"] > 0 and h["fps"] > 0
+    w = bench_pi.measure_window("hsv-replay", None, 1.0, recording=recording)
+    assert w["kind"] == "main" and w["loop_fps"][0] > 0
+    results = [{"case": "hsv-replay", "budget": "unthrottled", "fraction": None, "window": w, "headless": h,
+                "load": 1.0, "source": "replay"}]
+    table = bench_pi.pi_table(results)
+    assert "replay" in table.splitlines()[2] and "camera" in table.splitlines()[0]
