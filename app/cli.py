@@ -1,22 +1,44 @@
 """``deskarm`` command line: the window, the headless runner and the screenshot renderer.
 
 Qt is imported late (only when a window is needed) so ``deskarm --help`` and the headless
-runner start fast. Errors a user can hit are printed as one clear line, exit code 2.
+runner start fast; the session, the detectors and the cameras are imported when a run needs them
+(the assistive view needs none of them), all while Python's cyclic garbage collector is paused
+(``start_up``): start-up allocates a lot and frees little. Errors a user can hit are printed as
+one clear line, exit code 2.
 """
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import sys
+from contextlib import contextmanager
 
-from core.detect.registry import parse_detector_list
-from core.devices.bridge import BRIDGE_CHOICES
-from core.session import SCENARIOS, SessionOptions
-from core.vision.cameras import CAMERA_CHOICES
+
+# help texts that name a list from a module the run may not need: filled in only when the help is shown
+_LISTED = {"{CAMERA_CHOICES}": ("core.vision.cameras", "CAMERA_CHOICES"),
+           "{BRIDGE_CHOICES}": ("core.devices.bridge", "BRIDGE_CHOICES"),
+           "{SCENARIOS}": ("core.session", "SCENARIOS")}
+
+
+def _listed(token: str) -> str:
+    import importlib
+
+    module, name = _LISTED[token]
+    value = getattr(importlib.import_module(module), name)
+    return value if isinstance(value, str) else ", ".join(value)
 
 
 class _HelpFormatter(argparse.HelpFormatter):
-    """argparse's, without breaking words at hyphens (``calibrate-hand-eye`` stays whole)."""
+    """argparse's, without breaking words at hyphens (``calibrate-hand-eye`` stays whole), and
+    with the lists of ``_LISTED`` filled in (their modules are imported only for ``--help``)."""
+
+    def _get_help_string(self, action):
+        text = super()._get_help_string(action) or ""
+        for token in _LISTED:
+            if token in text:
+                text = text.replace(token, _listed(token))
+        return text
 
     def _fill_text(self, text, width, indent):
         import textwrap
@@ -33,10 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
         "With nothing plugged in it runs on a simulated desk.",
         epilog=tools_epilog(),
     )
-    p.add_argument("--camera", default="auto", help=f"camera source: {CAMERA_CHOICES} (default: auto)")
-    p.add_argument("--bridge", default="sim://", help=f"motor bridge: {BRIDGE_CHOICES} (default: sim://)")
+    p.add_argument("--camera", default="auto", help="camera source: {CAMERA_CHOICES} (default: auto)")
+    p.add_argument("--bridge", default="sim://", help="motor bridge: {BRIDGE_CHOICES} (default: sim://)")
     p.add_argument("--robot", default="desk_rrr", help="robot profile name or TOML path (default: desk_rrr)")
-    p.add_argument("--scenario", default="static", help=f"simulated desk scenario: {', '.join(SCENARIOS)}")
+    p.add_argument("--scenario", default="static", help="simulated desk scenario: {SCENARIOS}")
     p.add_argument("--calibration", default=None, help="stereo calibration YAML (default: the last saved one)")
     p.add_argument("--fps", type=float, default=30.0, help="camera frame rate (default: 30)")
     p.add_argument("--markers", default=None, metavar="FILE",
@@ -257,6 +279,28 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
+@contextmanager
+def start_up():
+    """Python's cyclic garbage collector paused while a run starts (imports, session, window), as
+    it was again when the block ends; the block gets a function that resumes it early.
+
+    Start-up makes hundreds of thousands of objects and frees few: each automatic collection
+    walks them all for nothing. A window collects from its GUI-thread timer once it runs
+    (app.startup.GuiThreadGarbage, which keeps the automatic collector off) and a headless run
+    collects and freezes what start-up made (core.session.freeze_startup_objects) after resuming."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+
+    def resume() -> None:
+        if was_enabled:
+            gc.enable()
+
+    try:
+        yield resume
+    finally:
+        resume()
+
+
 def _main(argv: list[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in SUBCOMMANDS:
@@ -264,6 +308,12 @@ def _main(argv: list[str] | None) -> int:
 
         module = importlib.import_module(SUBCOMMANDS[argv[0]])
         return module.run(argv[0], argv[1:])
+    with start_up() as resume_collector:
+        return _run(argv, resume_collector)
+
+
+def _run(argv: list[str], resume_collector) -> int:
+    """The window, the assistive view, the headless runner or a screenshot, as ``argv`` asks."""
     args = build_parser().parse_args(argv)
     problem = estop_switch_problem(args)
     if problem:
@@ -274,6 +324,9 @@ def _main(argv: list[str] | None) -> int:
     if args.hand_camera is not None or args.switch:
         print("deskarm: --hand-camera and --switch belong to the assistive view: add --assist", file=sys.stderr)
         return 2
+    from core.detect.registry import parse_detector_list
+    from core.session import SessionOptions
+
     try:
         detectors = () if args.detector is None else tuple(parse_detector_list(args.detector))
     except ValueError as exc:
@@ -317,6 +370,7 @@ def _main(argv: list[str] | None) -> int:
         if args.headless:
             from app.headless import run_headless
 
+            resume_collector()  # a long run must collect; it freezes what start-up made first
             return run_headless(options, args.duration, args.json, record=args.record)
         if args.screenshot:
             # always offscreen (even with QT_QPA_PLATFORM=xcb and no display, where Qt would abort):

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from types import SimpleNamespace
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
@@ -50,6 +50,7 @@ from app.window_draw import (  # noqa: F401 (the change tests import these from 
 )
 from app.window_frame import (  # noqa: F401 (re-exported: tests and app.cli import them from here)
     FRAME_GUESS_PX,
+    after_first_frame,
     fit_to_screen,
     menu_button,
     stop_strip,
@@ -78,10 +79,11 @@ from core.messages import TargetMode
 from core.motion.teleop_choice import starts_in_teleop
 from core.session import DeskSession, SessionOptions, freeze_startup_objects
 from widgets.arm_twin import ArmTwin
-from widgets.arm_twin_3d import available_3d, make_twin_3d
 from widgets.camera_view import CameraView
-from widgets.help_dialog import HelpDialog
 from widgets.teleop_panel import teleop_banner_text
+
+if TYPE_CHECKING:  # made on first use: not imported at start-up
+    from widgets.help_dialog import HelpDialog
 
 REDRAW_INTERVAL_MS = 33  # ~30 Hz display rate: draws start at least this far apart
 MIN_REDRAW_GAP_MS = 5  # and leave the event loop at least this long between them (slow draws)
@@ -221,7 +223,7 @@ class MainWindow(QtWidgets.QMainWindow):
             pages.append((self.jog_panel, "Jog"))
         pages += [(self.markers_table, "Markers"), (self.objects.page_with(self.teach.page), "Objects"),
                   (self.camera_page, "Camera"), (self.stereo_panel, "Stereo"), (self.robot.page, "Robot")]
-        self.tabs = touch_tab_widget(pages)
+        self.tabs = touch_tab_widget(pages, self)  # the hidden pages join when opened or after the 1st frame
         self.tabs.currentChanged.connect(self._mark_dirty)  # a table that only updates while shown: at once
         if self.rtx.needs_init:  # the arm moves only after its initialisation: show where to start it
             show_tab_of(self.tabs, self.robot.page)
@@ -523,6 +525,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def on_view_3d(self, on: bool) -> None:
         """Show the 3D twin (OpenGL) instead of the top and side views, or back."""
         if on and self.twin3d is None:
+            from widgets.arm_twin_3d import available_3d, make_twin_3d  # OpenGL: when first asked for
             self.twin3d = make_twin_3d()
             if self.twin3d is None:
                 self.view_3d_button.setChecked(False)
@@ -658,8 +661,7 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     free = screen.availableGeometry() if screen is not None else QtCore.QRect()
     fitted, maximise = fit_window_size(size, (free.width(), free.height()))
     app.aboutToQuit.connect(window.stop)
-    freeze_startup_objects()  # short young-generation collections while the loop runs
-    garbage = GuiThreadGarbage(app)  # … and only in the GUI thread
+    garbage = GuiThreadGarbage(app)  # collections only in the GUI thread (off until then: app.cli.start_up)
     app.aboutToQuit.connect(garbage.stop)
     if window.preferences.geometry_restored:  # where the user left it (it fits this screen)
         window.show()
@@ -674,6 +676,9 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     finish_splash(splash)
     start_scene_now(session)
     window.start()
+    # short young-generation collections while the loop runs: what start-up made is collected
+    # once and frozen, after the first frame (a full collection: ~0.1 s of a Pi 4 core)
+    after_first_frame(window, freeze_startup_objects)
     if record is not None:  # --record [PATH]: recording from the start (● REC stops it)
         window.record_path = record or None
         window.record_button.setChecked(True)

@@ -1,6 +1,7 @@
 """The main window's frame on the screen, as pure functions where possible: a size that fits the
 screen (window-manager frame included), where a window must move to stay on it, the version
-shown in Help, and starting the simulated scene when the window is up.
+shown in Help, starting the simulated scene when the window is up, and what waits for the first
+frame.
 """
 from __future__ import annotations
 
@@ -72,6 +73,31 @@ def start_scene_now(session) -> None:
         session.camera.connect()  # both restart their timeline at the clock's now
 
 
+FIRST_FRAME_POLL_MS = 50  # after_first_frame: how often it looks (a Pi takes ~0.5 s from show to frame)
+FIRST_FRAME_SETTLE_MS = 250  # … and how long it then waits: the frame is painted, the next ones flow
+
+
+def after_first_frame(window, callback) -> QtCore.QTimer:
+    """Call ``callback()`` once, shortly after ``window`` has drawn its first camera frame: work
+    that can wait (a full garbage collection, the hidden tabs' pages) then no longer delays what
+    the user waits for. Looks every FIRST_FRAME_POLL_MS on a timer owned by ``window`` (returned),
+    then calls FIRST_FRAME_SETTLE_MS later."""
+    poll = QtCore.QTimer(window)
+    poll.setInterval(FIRST_FRAME_POLL_MS)
+
+    def check() -> None:
+        drawn = getattr(window, "_drawn_result", None)
+        if drawn is not None and drawn.frame is not None:
+            poll.timeout.disconnect(check)
+            poll.setSingleShot(True)
+            poll.timeout.connect(callback)
+            poll.start(FIRST_FRAME_SETTLE_MS)
+
+    poll.timeout.connect(check)
+    poll.start()
+    return poll
+
+
 def menu_button(parent: QtWidgets.QWidget, entries) -> tuple[QtWidgets.QToolButton, list]:
     """☰ with a touch-sized menu of ``entries`` — (text, slot, shortcut or "", checkable), or None
     for a separator — and the actions made for them (separators left out). Each action's
@@ -131,23 +157,82 @@ def stop_strip(left: list, messages: QtWidgets.QWidget, stop: QtWidgets.QWidget)
     return strip
 
 
-def touch_tab_widget(pages) -> QtWidgets.QTabWidget:
+EAGER_TABS = 2  # touch_tab_widget: the pages in their tabs at once (Target, and Jog or Pose)
+
+
+class DeferredPages(QtCore.QObject):
+    """Tab pages put into their (empty) scroll areas only when first needed: when their tab is
+    first opened, by :meth:`insert_all`, or by :func:`show_tab_of`. Until then a page is built and
+    works (its feature sets it, the preferences restore it) but is no child of the window: laying
+    out and styling pages nobody sees yet is no longer part of the start-up."""
+
+    def __init__(self, tabs: QtWidgets.QTabWidget):
+        super().__init__(tabs)
+        self._tabs = tabs
+        self._pending: dict[QtWidgets.QScrollArea, QtWidgets.QWidget] = {}
+        tabs.currentChanged.connect(self._on_current)
+
+    def add(self, area: QtWidgets.QScrollArea, page: QtWidgets.QWidget) -> None:
+        self._pending[area] = page
+
+    @property
+    def pending(self) -> list[QtWidgets.QWidget]:
+        """The pages not in their tabs yet."""
+        return list(self._pending.values())
+
+    def insert(self, area: QtWidgets.QWidget) -> None:
+        from widgets._style import set_scroll_content
+
+        page = self._pending.pop(area, None)
+        if page is not None:
+            set_scroll_content(area, page)
+
+    @QtCore.Slot()
+    def insert_all(self) -> None:
+        for area in list(self._pending):
+            self.insert(area)
+
+    def area_of(self, page: QtWidgets.QWidget) -> Optional[QtWidgets.QWidget]:
+        """The scroll area waiting for ``page`` or for a page holding it (None: none waits)."""
+        return next((a for a, p in self._pending.items() if p is page or p.isAncestorOf(page)), None)
+
+    @QtCore.Slot(int)
+    def _on_current(self, index: int) -> None:
+        self.insert(self._tabs.widget(index))
+
+
+def touch_tab_widget(pages, window: Optional[QtWidgets.QWidget] = None,
+                     eager: int = EAGER_TABS) -> QtWidgets.QTabWidget:
     """Finger-sized tabs of ``pages`` ((widget, title) pairs), each page scrolling vertically
     only and never narrower than itself, so a splitter leaves the tabs room for it (no sideways
-    scrolling, no clipped buttons at 800x480)."""
+    scrolling, no clipped buttons at 800x480). With ``window``, the pages after the first
+    ``eager`` go into their tabs when first opened or once ``window`` has drawn its first camera
+    frame (``tabs.deferred``: :class:`DeferredPages`; a deferred page wider than the first ones
+    would widen the tabs when it comes in — today the Target page is the widest)."""
     from widgets._style import touch_scroll_area, touch_tabs
 
     tabs = QtWidgets.QTabWidget()
     tabs.setDocumentMode(True)
     tabs.tabBar().setExpanding(True)
     touch_tabs(tabs)
-    for widget, title in pages:
-        tabs.addTab(touch_scroll_area(widget), title)
+    tabs.deferred = DeferredPages(tabs)
+    for index, (widget, title) in enumerate(pages):
+        later = window is not None and index >= eager
+        area = touch_scroll_area(None if later else widget)
+        tabs.addTab(area, title)
+        if later:
+            tabs.deferred.add(area, widget)
+    if window is not None and tabs.deferred.pending:
+        after_first_frame(window, tabs.deferred.insert_all)
     return tabs
 
 
 def show_tab_of(tabs: QtWidgets.QTabWidget, page: QtWidgets.QWidget) -> None:
     """Open the tab holding ``page`` (inside its scroll area)."""
+    deferred = getattr(tabs, "deferred", None)
+    waiting = None if deferred is None else deferred.area_of(page)
+    if waiting is not None:
+        deferred.insert(waiting)
     for index in range(tabs.count()):
         if tabs.widget(index).isAncestorOf(page):
             tabs.setCurrentIndex(index)

@@ -3,9 +3,6 @@
 Widgets never parse config files and own no threads: they receive data through methods and
 report user actions through ``sig*`` signals (documented in each class docstring, all emitted
 from the GUI thread). Import the classes from their modules, e.g.
-``from widgets.target_panel import TargetPanel``; this package stays light.
+``from widgets.target_panel import TargetPanel``; this package stays light: it imports no
+pyqtgraph (the modules that draw with it take it, configured, from ``widgets._pyqtgraph``).
 """
-import pyqtgraph as pg
-
-# OpenCV arrays are (row, col[, channel]); say so once for every ImageItem in the app.
-pg.setConfigOptions(imageAxisOrder="row-major")

@@ -1,7 +1,7 @@
 """Small pyqtgraph plots shared by the wizards (private to ``widgets``)."""
 from __future__ import annotations
 
-import pyqtgraph as pg
+from widgets._pyqtgraph import pg
 
 BAR_PLOT_MIN_HEIGHT_PX = 110
 

@@ -345,21 +345,28 @@ QScrollBar::handle:vertical { min-height: 44px; }
 """
 
 
-def touch_scroll_area(content: QtWidgets.QWidget,
+def touch_scroll_area(content: QtWidgets.QWidget | None,
                       parent: QtWidgets.QWidget | None = None) -> QtWidgets.QScrollArea:
     """A vertical-only scroll area with a finger-wide scroll bar around ``content``, whose page
-    a finger or the mouse drags and flicks (see :class:`DragScroll`)."""
+    a finger or the mouse drags and flicks (see :class:`DragScroll`). ``content`` None: an empty
+    area, filled later with :func:`set_scroll_content`."""
     area = QtWidgets.QScrollArea(parent)
-    area.setWidget(content)
     area.setWidgetResizable(True)
     area.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
     area.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
     area.verticalScrollBar().setStyleSheet(SCROLL_STYLE)
-    # Vertical-only: never narrower than the content plus the scroll bar, or it would clip.
-    area.setMinimumWidth(content.minimumSizeHint().width()
-                         + area.verticalScrollBar().sizeHint().width() + 2)
+    if content is not None:
+        set_scroll_content(area, content)
     DragScroll(area)
     return area
+
+
+def set_scroll_content(area: QtWidgets.QScrollArea, content: QtWidgets.QWidget) -> None:
+    """Put ``content`` in a :func:`touch_scroll_area`, which is then never narrower than it (plus
+    the scroll bar): vertical-only, it would clip."""
+    area.setWidget(content)
+    area.setMinimumWidth(content.minimumSizeHint().width()
+                         + area.verticalScrollBar().sizeHint().width() + 2)
 
 
 _MOUSE_EVENTS = (QtCore.QEvent.Type.MouseButtonPress, QtCore.QEvent.Type.MouseButtonDblClick,

@@ -11,10 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from core.vision.stereo_calibration import rms_verdict
+from widgets._pyqtgraph import pg
 from widgets._plots import static_bar_plot
 from widgets._style import ERROR_COLOUR, OK_COLOUR, TOUCH_PX, WARN_COLOUR, touch_button
 from widgets.calibration_wizard_parts import (

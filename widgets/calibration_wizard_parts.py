@@ -10,11 +10,11 @@ from typing import Optional
 
 import cv2
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from core.vision.board_print import PRINT_DPI
 from core.vision.stereo_calibration import BoardSpec, Coverage
+from widgets._pyqtgraph import pg
 from widgets._style import ACCENT_COLOUR, ERROR_COLOUR, OK_COLOUR, TOUCH_PX, WARN_COLOUR
 from widgets._style import bold_label as _bold
 PAGES = ("board", "capture", "results")

@@ -10,9 +10,9 @@ import math
 from typing import Optional, Sequence
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui
 
+from widgets._pyqtgraph import pg
 from widgets.camera_overlays import (
     DARK_TEXT_LUMA,
     DETAIL_LABEL_Z,

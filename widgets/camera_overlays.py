@@ -13,10 +13,10 @@ from typing import Optional, Sequence
 
 import cv2
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui
 
 from core.messages import MarkerObservation
+from widgets._pyqtgraph import pg
 DISPLAY_MODES = ("image", "disparity")
 DISPARITY_COLORMAP = "turbo"
 FOUND_COLOUR = (40, 220, 60)

@@ -228,6 +228,11 @@ class StopGuard(QtCore.QObject):
     and Esc (stopping twice is stopping). Modal dialogs block Qt's input to every other window,
     so the application opens none while a guard is installed (file dialogs: :func:`open_file_dialog`).
 
+    Until its window first shows, the guard watches only that window: each of the above needs
+    STOP on screen, and an application-wide filter sees every event of building the window's
+    widgets (thousands, each a call into Python: a noticeable part of a Pi's start-up).
+    ``watching_application`` says which.
+
     Signals:
     - sigStopRequested(): a press on STOP's area or Esc, from the GUI thread.
     """
@@ -245,10 +250,19 @@ class StopGuard(QtCore.QObject):
         self._focus_timer.setSingleShot(True)
         self._focus_timer.setInterval(0)
         self._focus_timer.timeout.connect(self.reclaim_focus)
-        app = QtWidgets.QApplication.instance()
-        app.installEventFilter(self)
+        self.watching_application = False  # see the class docstring: from the window's first show
+        if self.window.isVisible():
+            self._watch_application()
+        else:
+            self.window.installEventFilter(self)
         StopGuard._live.append(self)
         stop_widget.destroyed.connect(self._forget)
+
+    def _watch_application(self) -> None:
+        if self._alive():
+            self.window.removeEventFilter(self)
+        QtWidgets.QApplication.instance().installEventFilter(self)
+        self.watching_application = True
 
     @classmethod
     def stop_all(cls) -> None:
@@ -262,6 +276,8 @@ class StopGuard(QtCore.QObject):
         app = QtWidgets.QApplication.instance()
         if app is not None:
             app.removeEventFilter(self)
+        if self._alive():
+            self.window.removeEventFilter(self)
 
     def remove(self) -> None:
         """Stop guarding (the window is closing)."""
@@ -352,6 +368,10 @@ class StopGuard(QtCore.QObject):
     # -- the filter -------------------------------------------------------------------------------
     def eventFilter(self, obj: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt override)
         kind = event.type()
+        if not self.watching_application:  # the window's own events, until it shows
+            if kind == QtCore.QEvent.Type.Show and obj is self.window:
+                self._watch_application()
+            return False
         if kind in _PRESS_EVENTS:
             return self._on_press(event)
         if kind == QtCore.QEvent.Type.KeyPress:

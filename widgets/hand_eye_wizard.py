@@ -34,9 +34,9 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
+from widgets._pyqtgraph import pg
 from widgets._style import (
     show_adaptive,
     ACCENT_COLOUR,

@@ -13,15 +13,17 @@ a stereo or camera → arm calibration is in use now (legends, status bar, views
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 from PySide6 import QtCore, QtWidgets
 
-from app.calibration_worker import CalibrationController
-from app.hand_eye import HandEyeController
 from widgets._style import TOUCH_PX, touch_button
 from widgets.camera_controls import CameraSettingsPanel
 from widgets.device_controls import DeviceControlsPanel
+
+if TYPE_CHECKING:  # the wizards' modules are imported when one first opens (start-up)
+    from app.calibration_worker import CalibrationController
+    from app.hand_eye import HandEyeController
 
 
 class CalibrationFeature(QtCore.QObject):
@@ -139,6 +141,8 @@ class CalibrationFeature(QtCore.QObject):
     def open_calibration(self) -> None:
         """Open the calibration wizard (fed with the live frames while it is open)."""
         if self.calibration_controller is None:
+            from app.calibration_worker import CalibrationController
+
             ctl = self.calibration_controller = CalibrationController(self)
             ctl.sigCalibrationInstalled.connect(self.on_calibration_installed)
             ctl.sigBoardShown.connect(self.on_board_shown)
@@ -188,6 +192,8 @@ class CalibrationFeature(QtCore.QObject):
     def open_hand_eye(self):
         """Robot tab → Calibrate camera→arm…: the hand-eye wizard (its own STOP)."""
         if self.hand_eye is None:
+            from app.hand_eye import HandEyeController
+
             self.hand_eye = HandEyeController(self.host)
             self.hand_eye.sigCalibrationInUse.connect(self.on_hand_eye_in_use)
             self.sigDialogMade.emit(self.hand_eye)

@@ -9,12 +9,14 @@ the dialog was made (it has STOP and shows the e-stop state).
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 from PySide6 import QtCore, QtWidgets
 
 from app.window_frame import deskarm_version
-from widgets.help_dialog import HelpDialog
+
+if TYPE_CHECKING:  # imported when the dialog is first made (start-up)
+    from widgets.help_dialog import HelpDialog
 
 
 class HelpFeature(QtCore.QObject):
@@ -35,6 +37,8 @@ class HelpFeature(QtCore.QObject):
     def show_help(self) -> HelpDialog:
         """F1: version, shortcuts, reset settings — with its own STOP."""
         if self.help_dialog is None:
+            from widgets.help_dialog import HelpDialog
+
             self.help_dialog = HelpDialog(deskarm_version(), str(self.preferences.path), parent=self._parent)
             self.help_dialog.sigResetRequested.connect(self.on_reset_settings)
             self.sigDialogMade.emit(self.help_dialog)

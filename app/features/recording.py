@@ -11,13 +11,15 @@ the recordings dialog was made (it has STOP and shows the e-stop state).
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 from PySide6 import QtCore, QtWidgets
 
 from app.window_texts import replay_end_text
 from widgets._style import TOUCH_PX, touch_button, touch_slider
-from widgets.recordings_dialog import RecordingsDialog
+
+if TYPE_CHECKING:  # imported when the dialog is first made (start-up)
+    from widgets.recordings_dialog import RecordingsDialog
 
 
 class RecordingFeature(QtCore.QObject):
@@ -116,6 +118,7 @@ class RecordingFeature(QtCore.QObject):
     def show_recordings(self) -> RecordingsDialog:
         """☰ → Recordings…: what was recorded, and the command that replays it."""
         from core.record.recorder import list_recordings, recordings_dir
+        from widgets.recordings_dialog import RecordingsDialog
 
         dialog = self.recordings_dialog
         if dialog is None:

@@ -11,12 +11,13 @@ stops every motor on both chips; ``poll()`` (the window's status tick) shows the
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 from PySide6 import QtCore
 
-from app.rtx_init_worker import RtxInitRunner
-from widgets.rtx_init_panel import RtxInitPanel
+if TYPE_CHECKING:  # imported only for an RTX (start-up of every other arm)
+    from app.rtx_init_worker import RtxInitRunner
+    from widgets.rtx_init_panel import RtxInitPanel
 
 
 def is_rtx_bridge(bridge) -> bool:
@@ -37,6 +38,9 @@ class RtxFeature(QtCore.QObject):
         bridge = session.bridge
         if not is_rtx_bridge(bridge):
             return
+        from app.rtx_init_worker import RtxInitRunner
+        from widgets.rtx_init_panel import RtxInitPanel
+
         self.page = RtxInitPanel()
         self.runner = RtxInitRunner(bridge, self)
         self.page.sigStartRequested.connect(self.runner.start)

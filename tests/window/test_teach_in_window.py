@@ -10,8 +10,8 @@ def test_the_teach_panel_is_in_the_objects_tab(qtbot):
     w = objects_window(qtbot, detectors=("hsv",))
     try:
         objects_tab = w.tabs.widget([w.tabs.tabText(i) for i in range(w.tabs.count())].index("Objects"))
+        w.tabs.setCurrentWidget(objects_tab)  # (a hidden tab's page joins it when first opened)
         assert objects_tab.isAncestorOf(w.detector_panel) and objects_tab.isAncestorOf(w.teach.page)
-        w.tabs.setCurrentWidget(objects_tab)
         qtbot.waitUntil(lambda: w.teach.page.isVisible(), timeout=TIMEOUT_MS)
     finally:
         w.stop()

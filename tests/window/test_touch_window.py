@@ -166,6 +166,7 @@ def test_tabs_and_drop_down_rows_are_finger_sized(qtbot, small):
 
 # --- 7. the wheel over an unfocused slider scrolls the page, not the value ------------------
 def test_wheel_over_an_unfocused_slider_keeps_its_value(qtbot, small):
+    small.tabs.deferred.insert_all()  # the pages of the tabs not opened yet too (they join when opened)
     sliders = [s for s in small.findChildren(QtWidgets.QAbstractSlider)
                if not isinstance(s, QtWidgets.QScrollBar)]
     assert len(sliders) > 5
