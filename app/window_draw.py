@@ -166,12 +166,11 @@ def draw_views(views, result, max_disparity: float, followed) -> None:
         compact = view.width() < COMPACT_VIEW_PX  # small views: ids only, positions are in the twin
         overlays = [o for o in (MarkerOverlay.from_observation(m, side, "" if compact else None)
                                 for m in r.markers) if o is not None]
-        view.set_markers(overlays)
         # objects: id, name and score; position and speed too in a wide view, or for the
-        # object being followed
-        view.set_objects([o for o in (ObjectOverlay.from_observation(obs, side, not compact or
-                                                                     obs.object_id == followed)
-                                      for obs in r.objects) if o is not None])
+        # object being followed; the labels of both kinds laid out once
+        view.set_overlays(overlays, [o for o in (ObjectOverlay.from_observation(obs, side, not compact or
+                                                                                obs.object_id == followed)
+                                                 for obs in r.objects) if o is not None])
 
 
 def draw_twin(twin, session, result, command, state) -> None:

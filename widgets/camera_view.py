@@ -108,6 +108,8 @@ class CameraView(QtWidgets.QWidget):
         self._markers: list[_MarkerGraphics] = []
         self._objects: list[_ObjectGraphics] = []
         self._shown_objects: list[ObjectOverlay] = []
+        self._defer_layout = False  # set_overlays: the labels are laid out once, after both kinds
+        self._layout_pending = False
         self._given_objects: list[ObjectOverlay] = []  # as set, before the thresholds judged them
         self._object_thresholds = None  # per-class score thresholds (set_object_thresholds)
 
@@ -344,6 +346,19 @@ class CameraView(QtWidgets.QWidget):
         for slot in self._markers[len(markers):]:
             slot.hide()
         self._layout_labels()
+
+    def set_overlays(self, markers: Sequence[MarkerOverlay], objects: Sequence[ObjectOverlay]) -> None:
+        """``set_markers`` and ``set_objects`` with one label layout instead of one each (a frame
+        brings both; the layout depends only on what is shown, so the labels end where two
+        layouts would have put them, at half the cost)."""
+        self._defer_layout = True
+        try:
+            self.set_markers(markers)
+            self.set_objects(objects)
+        finally:
+            self._defer_layout = False
+        if self._layout_pending:
+            self._layout_labels()
 
     def set_object_thresholds(self, thresholds) -> None:
         """Per-class score thresholds (``core.detect.thresholds.ClassThresholds``, None: none): an
@@ -611,6 +626,10 @@ class CameraView(QtWidgets.QWidget):
         form when no place near it is free (:func:`shorter_texts`); left out when even that
         has no room near its thing (never drawn far away, where it would name a neighbour).
         Fonts are smaller in a small view."""
+        if self._defer_layout:
+            self._layout_pending = True
+            return
+        self._layout_pending = False
         if self._mode != "image":
             return
         (x0, x1), (y0, y1) = self._view_box.viewRange()

@@ -322,3 +322,45 @@ def test_a_non_finite_manual_target_is_refused_with_a_note_not_a_traceback(windo
     window.on_manual_target((float("nan"), 0.1, 0.1))
     assert window.session.targeter.manual_target == before
     assert "must be a finite number" in window._note
+
+
+def test_a_frames_markers_and_objects_are_labelled_in_one_layout_where_two_would_put_them(qtbot, monkeypatch):
+    """set_overlays (what the window's draw calls) lays the labels out once for both kinds (issue 28:
+    two layouts a view a frame were a tenth of the window's draw), where set_markers then
+    set_objects, each laying them out, put them."""
+    from widgets.camera_view import ObjectOverlay
+
+    def square(object_id, x, y, label, r=22.0):
+        return ObjectOverlay(object_id, (x - r, y - r, 2 * r, 2 * r),
+                             np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]]), label)
+
+    views = []
+    for _ in range(2):
+        view = CameraView("Left")
+        qtbot.addWidget(view)
+        view.resize(185, 190)  # the 800x480 window's view
+        view.show()
+        qtbot.waitExposed(view)
+        view.show_image(np.full((480, 640, 3), 90, np.uint8))
+        views.append(view)
+    one, two = views
+    frames = [([MarkerOverlay(23, np.array(CORNERS) + d, True, "23: x 3.1 y 15.2 z 0.0 cm")],
+               [square(1, 150 + d, 130, "#1 red"), square(2, 160, 190 + d, "#2 blue 0.98"),
+                square(3, 420, 300 - d, "#3 green")]) for d in (0.0, 4.0, 9.0)]
+    laid_out = []
+    real = one._layout_labels
+
+    def layout():  # a layout that places labels (not one put off until both kinds are set)
+        laid_out.append(not one._defer_layout)
+        real()
+
+    monkeypatch.setattr(one, "_layout_labels", layout)
+    for markers, objects in frames:
+        laid_out.clear()
+        one.set_overlays(markers, objects)
+        assert laid_out.count(True) == 1, laid_out
+        two.set_markers(markers)
+        two.set_objects(objects)
+        drawn_one = [(d.kind, d.key, d.text, d.rect.topLeft().toTuple()) for d in one.drawn_labels()]
+        drawn_two = [(d.kind, d.key, d.text, d.rect.topLeft().toTuple()) for d in two.drawn_labels()]
+        assert drawn_one == drawn_two and len(drawn_one) >= 4
