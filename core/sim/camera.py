@@ -44,7 +44,7 @@ from core.vision.stereo_calibration import BoardSpec
 
 RENDER_MARGIN_S = 0.003  # a render starts this much earlier than the slowest recent render needs
 READS_KEPT = 9  # the reader's cycle is the median gap of its last this many reads (SimStereoCamera._skips)
-SKIP_SLACK = 0.25  # of a frame period: a frame is skipped only if the reader is due this much after the next
+SKIP_SLACK = 0.5  # of a frame period: a frame is skipped only if the reader is due this much after the next
 BOARD_POSES = 20  # poses a shown calibration board goes through (then round again)
 BOARD_HOLD_S = 1.5  # each pose is held still this long (camera clock): the wizard's gate needs still frames
 BOARD_SEED = 11  # seed of the shown board's poses (held_board_poses): the same poses every time
