@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup run test bench bench-full bench-pi firmware-test clean install-desktop check-arm64
+.PHONY: setup run test test-qt-oldest bench bench-full bench-pi firmware-test clean install-desktop check-arm64
 
 setup: $(STAMP)
 
@@ -36,6 +36,23 @@ test: $(STAMP) firmware-test
 	$(VENV)/bin/lint-imports --no-logo --no-cache
 	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q $$($(PY) -c "import PySide6" 2>/dev/null || echo "-p no:pytest-qt") $(TESTS)
 
+# The oldest PySide6 deskarm allows (Raspberry Pi OS Bookworm's newest wheel) in a venv of its own,
+# running the tests that build the window and its panels (CI; QT_OLDEST_TESTS=tests for the whole suite).
+QT_OLDEST       := 6.8.0.2
+QT_OLDEST_VENV  := .venv-qt-oldest
+QT_OLDEST_TESTS ?= tests/window/features tests/window/test_main_window.py tests/window/test_touch_window.py \
+	tests/window/test_text_fit.py tests/window/test_no_qt_cycles.py tests/window/test_gui_thread_garbage.py \
+	tests/window/test_stop_strip.py tests/window/test_physical_estop.py tests/window/test_labeled_slider.py \
+	tests/window/test_assist_window.py tests/window/test_widgets.py
+test-qt-oldest: $(STAMP)
+	@test -x $(QT_OLDEST_VENV)/bin/python || $(PYTHON) -m venv $(QT_OLDEST_VENV)
+	@if $(VENV)/bin/uv --version >/dev/null 2>&1; then \
+		VIRTUAL_ENV=$(QT_OLDEST_VENV) $(VENV)/bin/uv pip install -q -e '.[test]' 'PySide6-Essentials==$(QT_OLDEST)'; \
+	else \
+		$(QT_OLDEST_VENV)/bin/python -m pip install -q -e '.[test]' 'PySide6-Essentials==$(QT_OLDEST)'; \
+	fi
+	QT_QPA_PLATFORM=offscreen $(QT_OLDEST_VENV)/bin/python -m pytest -q -p no:cacheprovider $(QT_OLDEST_TESTS)
+
 firmware-test:
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware test; fi
 	@if command -v avr-gcc >/dev/null 2>&1; then $(MAKE) -s -C firmware avr; \
@@ -63,7 +80,7 @@ bench-pi: $(VENV)/.bench-installed
 	QT_QPA_PLATFORM=offscreen $(PY) -m bench --pi
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) $(QT_OLDEST_VENV) build *.egg-info
 	@if [ -f firmware/Makefile ]; then $(MAKE) -s -C firmware clean; fi
 
 # Put deskarm in the desktop's application menu (double-click to start).

@@ -177,11 +177,11 @@ def problem() -> str:
 
 
 NO_QT_WHEEL = (
-    "deskarm: the window needs PySide6 (Qt for Python) 6.9.3 or newer, and it is not installed: its "
-    "wheels need glibc 2.39, and this system has {glibc} (Raspberry Pi OS Bookworm has 2.36; 32-bit "
-    "systems have no wheel at all). Raspberry Pi OS Trixie (64-bit) runs the window. Here: deskarm "
-    "--headless runs the loop, and deskarm serve shares this desk so that the window runs on another "
-    "machine (deskarm --remote).")
+    "deskarm: the window needs PySide6 (Qt for Python) 6.8.0.2 or newer, and it is not installed: "
+    "PySide6 has no wheel for this system (32-bit ARM systems such as 32-bit Raspberry Pi OS have none; "
+    "this system's C library: glibc {glibc}). A 64-bit OS runs the window (Raspberry Pi OS Bookworm or "
+    "Trixie, 64-bit). Here: deskarm --headless runs the loop, and deskarm serve shares this desk so that "
+    "the window runs on another machine (deskarm --remote).")
 
 
 def glibc_version() -> str:

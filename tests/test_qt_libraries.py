@@ -127,4 +127,22 @@ def test_no_pyside_at_all_says_which_systems_run_the_window(monkeypatch, capsys)
     monkeypatch.setattr(ql, "glibc_version", lambda: "2.36")
     assert cli.main([]) == 2
     err = capsys.readouterr().err
-    assert "has 2.36" in err and "Trixie" in err and "deskarm --headless" in err and "--remote" in err
+    assert "glibc 2.36" in err and "64-bit" in err and "deskarm --headless" in err and "--remote" in err
+
+
+def test_pyproject_gives_bookworm_and_trixie_the_window_and_keeps_6_12_0_out():
+    """The PySide6 requirement, evaluated for each Pi OS (tests/arm64/resolve_wheels.sh resolves the
+    real wheels: Bookworm aarch64 gets 6.8.0.2, Trixie 6.11.3): it applies on 64-bit Pi OS, not on
+    32-bit (no wheel exists there), allows Bookworm's newest wheel and keeps the crashing 6.12.0 out."""
+    import tomllib
+
+    from packaging.requirements import Requirement
+
+    deps = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]["dependencies"]
+    (req,) = [Requirement(d) for d in deps if d.lower().startswith("pyside6")]
+    bookworm = {"platform_machine": "aarch64", "python_version": "3.11", "sys_platform": "linux"}
+    trixie = {"platform_machine": "aarch64", "python_version": "3.13", "sys_platform": "linux"}
+    armv7 = {"platform_machine": "armv7l", "python_version": "3.11", "sys_platform": "linux"}
+    assert req.marker.evaluate(bookworm) and req.marker.evaluate(trixie) and not req.marker.evaluate(armv7)
+    assert req.specifier.contains("6.8.0.2") and req.specifier.contains("6.11.3")
+    assert not req.specifier.contains("6.12.0") and not req.specifier.contains("6.7.3")

@@ -8,10 +8,12 @@
 # 2. deskarm's committed tree copied in, then the README's first command: `make run` — with no
 #    display it creates .venv, installs (PySide6 resolves to the newest wheel this glibc allows),
 #    reports missing Qt system libraries (a minimal system has none) and runs the headless demo.
-# 3. `make test` restricted to the core tests (no window: Qt's libraries are absent on purpose,
-#    like Raspberry Pi OS Lite) and the firmware tests without sanitizers (ASan binaries are killed
-#    for memory under qemu-user). QEMU_CPU=cortex-a76 (a Pi 5 core): with QEMU 7.2's default CPU
-#    numpy picks SME kernels that QEMU computes wrongly.
+# 3. Where PySide6 installed (Bookworm: 6.8.0.2), Qt's system libraries as the set-up's check
+#    names them, then the 800x480 window offscreen: its screenshot is copied to $ROOT.window.png.
+# 4. `make test` restricted to the core tests (the window tests would take hours under emulation)
+#    and the firmware tests without sanitizers (ASan binaries are killed for memory under qemu-user).
+#    QEMU_CPU=cortex-a76 (a Pi 5 core): with QEMU 7.2's default CPU numpy picks SME kernels that
+#    QEMU computes wrongly.
 # Needs root. Not in CI (too slow). Environment: ARM64_SUITE (bookworm|trixie), ARM64_ROOT, ARM64_MIRROR.
 set -euo pipefail
 SUITE=${ARM64_SUITE:-bookworm}
@@ -92,6 +94,16 @@ try:
     print(m.version(\"PySide6-Essentials\"))
 except m.PackageNotFoundError:
     print(\"none (no wheel for this glibc: no window; headless, serve and --remote work)\")"')"
+if in_root '.venv/bin/python -c "import PySide6"' 2>/dev/null; then
+    # the window on this OS: the set-up's own check installs Qt's system libraries (as root), then
+    # an offscreen screenshot of the 800x480 window, copied out beside the root file system
+    t0=$(date +%s)
+    say "Qt's system libraries (python -m app.qt_libraries --install), then the window offscreen"
+    in_root ".venv/bin/python -m app.qt_libraries --install" || true
+    in_root "QT_QPA_PLATFORM=offscreen .venv/bin/deskarm --size 800x480 --after 3 --screenshot /tmp/arm64-window.png"
+    cp "$ROOT/tmp/arm64-window.png" "$ROOT.window.png"
+    say "the window drew $ROOT.window.png in $(( $(date +%s) - t0 )) s"
+fi
 t0=$(date +%s)
 say "make test (core and firmware tests, no sanitizers) under emulation"
 in_root "make test SAN= TESTS='$CORE_TESTS'"

@@ -1,6 +1,7 @@
 """Panels are freed by reference counting, not by the cycle collector: collecting a cycle that
-holds a Qt parent and its child crashes PySide6 6.8.0.2 (the newest wheel Raspberry Pi OS Bookworm
-can install), so the window's panels must not make one (a Coalescer held its parent's method)."""
+holds a Qt parent and its child crashed PySide6 6.8.0.2 (the newest wheel Raspberry Pi OS Bookworm
+can install, the oldest deskarm allows) with superqt's sliders in it, so the window's panels must
+not make one (a Coalescer held its parent's method)."""
 from __future__ import annotations
 
 import gc

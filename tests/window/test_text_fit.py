@@ -95,11 +95,11 @@ def settle(qtbot, widget: QtWidgets.QWidget) -> None:
     from widgets.arm_twin_legend import LegendLabel
 
     qtbot.waitUntil(lambda: not widget.layout() or not widget.layout().isEmpty(), timeout=TIMEOUT_MS)
+    QtWidgets.QApplication.processEvents()  # posted updates first (a legend's new entries) ...
+    QtWidgets.QApplication.processEvents()
     legends = [label for label in widget.findChildren(LegendLabel) if label.isVisible()]
     qtbot.waitUntil(lambda: all(label.height() >= label.sizeHint().height() for label in legends),
-                    timeout=TIMEOUT_MS)
-    QtWidgets.QApplication.processEvents()
-    QtWidgets.QApplication.processEvents()
+                    timeout=TIMEOUT_MS)  # ... then the layout passes that give each legend its height
 
 
 def assert_legend_fits(twin) -> None:
