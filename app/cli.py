@@ -337,9 +337,11 @@ def _run(argv: list[str], resume_collector) -> int:
         print(f"deskarm: {problem}", file=sys.stderr)
         return 2
     try:
-        from app.cli_handeye import parse_rig_offset
+        rig_offset = None
+        if args.rig_offset is not None:
+            from app.cli_handeye import parse_rig_offset
 
-        rig_offset = parse_rig_offset(args.rig_offset)
+            rig_offset = parse_rig_offset(args.rig_offset)
     except ValueError as exc:
         print(f"deskarm: {exc}", file=sys.stderr)
         return 2

@@ -53,6 +53,7 @@ from app.window_frame import (  # noqa: F401 (re-exported: tests and app.cli imp
     after_first_frame,
     fit_to_screen,
     menu_button,
+    pause_scene,
     stop_strip,
     show_tab_of,
     timer,
@@ -645,6 +646,15 @@ for _name, _feature, _attr in (
 del _name, _feature, _attr
 
 
+def collect_in_the_gui_thread(app: QtWidgets.QApplication) -> None:
+    """After the first frame: collect what start-up made once and freeze it (the running loop's
+    young-generation collections then stay short; a full collection is ~0.1 s of a Pi 4 core),
+    then collect only from the GUI thread's timer (app.startup.GuiThreadGarbage, which keeps the
+    automatic collector off; app.cli.start_up has kept it off since the start)."""
+    freeze_startup_objects()
+    app.aboutToQuit.connect(GuiThreadGarbage(app).stop)
+
+
 def run_window(options: SessionOptions, size: tuple[int, int],
                splash: Optional[QtWidgets.QWidget] = None, record: Optional[str] = None) -> int:
     """Open the window and run until it is closed (fitted to the screen it opens on); the
@@ -656,13 +666,12 @@ def run_window(options: SessionOptions, size: tuple[int, int],
         finish_splash(splash)
         QtWidgets.QMessageBox.critical(None, "deskarm could not start", str(exc))
         return 1
+    pause_scene(session)  # until the window is up: start_scene_now
     window = MainWindow(session)
     screen = app.primaryScreen()
     free = screen.availableGeometry() if screen is not None else QtCore.QRect()
     fitted, maximise = fit_window_size(size, (free.width(), free.height()))
     app.aboutToQuit.connect(window.stop)
-    garbage = GuiThreadGarbage(app)  # collections only in the GUI thread (off until then: app.cli.start_up)
-    app.aboutToQuit.connect(garbage.stop)
     if window.preferences.geometry_restored:  # where the user left it (it fits this screen)
         window.show()
     elif maximise:
@@ -676,9 +685,7 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     finish_splash(splash)
     start_scene_now(session)
     window.start()
-    # short young-generation collections while the loop runs: what start-up made is collected
-    # once and frozen, after the first frame (a full collection: ~0.1 s of a Pi 4 core)
-    after_first_frame(window, freeze_startup_objects)
+    after_first_frame(window, lambda: collect_in_the_gui_thread(app))
     if record is not None:  # --record [PATH]: recording from the start (● REC stops it)
         window.record_path = record or None
         window.record_button.setChecked(True)
@@ -692,6 +699,7 @@ def take_screenshot(options: SessionOptions, path: str, after_s: float, size: tu
     mode, the camera settings) but not written. 1 (and one line) when the PNG cannot be written."""
     app = make_app()
     session = DeskSession.create(options)
+    pause_scene(session)  # until the window is up: start_scene_now
     window = MainWindow(session)
     window.preferences.read_only = True  # a screenshot's size is no window geometry to remember
     window.setWindowState(QtCore.Qt.WindowState.WindowNoState)  # not maximised / full screen as saved

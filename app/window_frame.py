@@ -73,6 +73,14 @@ def start_scene_now(session) -> None:
         session.camera.connect()  # both restart their timeline at the clock's now
 
 
+def pause_scene(session) -> None:
+    """Stop the simulated desk's camera while the window is built: its frames would be thrown
+    away (:func:`start_scene_now` starts it over), and on a Pi-class core its renders, 30 a
+    second, would take half the CPU the window's start-up needs."""
+    if getattr(session.camera, "kind", "") == "sim":
+        session.camera.disconnect()
+
+
 FIRST_FRAME_POLL_MS = 50  # after_first_frame: how often it looks (a Pi takes ~0.5 s from show to frame)
 FIRST_FRAME_SETTLE_MS = 250  # … and how long it then waits: the frame is painted, the next ones flow
 

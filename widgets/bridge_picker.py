@@ -64,6 +64,7 @@ class BridgePicker(QtWidgets.QWidget):
         super().__init__(parent)
         self._list_ports = list_ports or (list)
         self._recent: tuple[str, ...] = ()
+        self._listed: list[tuple[str, str]] = []  # (label, path) as the last refresh listed them
         self._requested: str | None = None  # the last URL asked for, until another one is
         layout = QtWidgets.QGridLayout(self)
         layout.setContentsMargins(6, 6, 6, 6)
@@ -97,11 +98,13 @@ class BridgePicker(QtWidgets.QWidget):
     # ------------------------------------------------------------------ ports
     def refresh(self) -> None:
         """Re-list the ports (recent ones first), keeping the chosen or typed one."""
+        self._listed = list(self._list_ports())
         self._fill(self.port())
 
     def set_recent_ports(self, paths: Sequence[str]) -> None:
         """Ports connected before, most recent first: listed before the others, marked "recent"
-        (also when nothing lists them now, e.g. a pseudo-terminal). Keeps the current choice."""
+        (also when nothing lists them now, e.g. a pseudo-terminal). Keeps the current choice; the
+        other ports are the last refresh's (listing them again is a scan of the system's devices)."""
         self._recent = tuple(dict.fromkeys(p.strip() for p in paths if p.strip()))
         self._fill(self.port())
 
@@ -127,7 +130,7 @@ class BridgePicker(QtWidgets.QWidget):
             self.port_combo.setEditText(path)
 
     def _fill(self, keep: str) -> None:
-        listed = list(self._list_ports())
+        listed = self._listed
         labels = {path: label for label, path in listed}
         blocked = self.port_combo.blockSignals(True)
         self.port_combo.clear()

@@ -11,6 +11,8 @@ import gc
 
 from PySide6 import QtCore, QtWidgets
 
+from app.gui import collect_in_the_gui_thread
+from app.startup import GuiThreadGarbage
 from app.window_frame import FIRST_FRAME_POLL_MS, after_first_frame
 from tests.window.test_touch_window import make_window
 from widgets.estop import EStopButton, StopGuard
@@ -63,6 +65,30 @@ def test_work_after_the_first_frame_runs_once_the_frame_is_drawn(qtbot):
         w.stop()
 
 
+def test_the_start_up_s_objects_are_collected_and_frozen_after_the_first_frame(qtbot):
+    """Then the GUI thread's timer collects (GuiThreadGarbage); until then the collector stays
+    off, as app.cli.start_up leaves it."""
+    app = QtWidgets.QApplication.instance()
+    before = set(app.findChildren(GuiThreadGarbage))
+    w = make_window(qtbot)
+    was_enabled = gc.isenabled()
+    gc.disable()
+    after_first_frame(w, lambda: collect_in_the_gui_thread(app))
+    try:
+        w.start()
+        qtbot.waitUntil(lambda: bool(set(app.findChildren(GuiThreadGarbage)) - before), timeout=TIMEOUT_MS)
+        assert w._drawn_result is not None and w._drawn_result.frame is not None
+        assert gc.get_freeze_count() > 0 and not gc.isenabled()
+    finally:
+        w.stop()
+        for garbage in set(app.findChildren(GuiThreadGarbage)) - before:
+            garbage.stop()
+            garbage.setParent(None)
+        gc.unfreeze()
+        if was_enabled:
+            gc.enable()
+
+
 class _CountingGuard(StopGuard):
     calls = 0  # events of anything but the guarded window itself
 
@@ -92,3 +118,26 @@ def test_stop_guard_watches_the_application_from_its_window_s_first_show(qtbot):
             qtbot.mouseClick(stop, LEFT)  # a press on STOP's rectangle: the guard's own stop
     finally:
         guard.remove()
+
+
+def test_the_simulated_desk_renders_nothing_while_the_window_is_built(qtbot, monkeypatch, tmp_path):
+    """Its frames would be thrown away (the scene starts over once the window is up), and on a
+    Pi-class core its renders would take the CPU the window's start-up needs."""
+    import app.gui
+    from core.session import SessionOptions
+
+    seen = []
+
+    class Watched(app.gui.MainWindow):
+        def __init__(self, session):
+            seen.append(("building", session.camera.is_connected, session.camera.frames_rendered))
+            super().__init__(session)
+            qtbot.addWidget(self)  # closed at the test's end (take_screenshot only stops it)
+            seen.append(("built", session.camera.is_connected, session.camera.frames_rendered))
+
+    monkeypatch.setattr(app.gui, "MainWindow", Watched)
+    path = tmp_path / "window.png"
+    assert app.gui.take_screenshot(SessionOptions(camera="sim", scenario="wander"), str(path), 1.0, (800, 480)) == 0
+    assert path.is_file()
+    (_, connected, rendered), (_, still_connected, rendered_after) = seen
+    assert not connected and not still_connected and rendered_after == rendered

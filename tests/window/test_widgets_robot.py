@@ -1,5 +1,6 @@
 """E-stop button and bridge picker (pytest-qt, offscreen)."""
 import pytest
+from PySide6 import QtCore
 
 from core.messages import BridgeStatus
 from widgets._style import INFO_COLOUR, OK_COLOUR, TOUCH_PX, WARN_COLOUR
@@ -73,6 +74,27 @@ def test_recent_ports_come_first_marked_recent_and_the_choice_is_kept(qtbot):
     assert p.port() == "/dev/pts/5"  # the first item
     with qtbot.waitSignal(p.sigConnectRequested, check_params_cb=lambda url: url == "v2:/dev/pts/5"):
         p.connect_button.click()
+
+
+def test_the_system_s_ports_are_listed_once_at_start_up_and_again_on_refresh(qtbot):
+    """Listing the ports scans the system's devices: the window's start-up (the picker, then the
+    remembered recent ports) does it once; Refresh (a tap) lists them again, a new one included."""
+    ports = [LAUNCHPAD]
+    calls = []
+
+    def list_ports():
+        calls.append(1)
+        return list(ports)
+
+    p = BridgePicker(list_ports)
+    qtbot.addWidget(p)
+    p.set_recent_ports(["/dev/pts/5"])
+    assert len(calls) == 1
+    assert combo_texts(p.port_combo) == ["/dev/pts/5 (recent)", LAUNCHPAD[0]]
+    ports.append(("/dev/ttyUSB0", "/dev/ttyUSB0"))
+    qtbot.mouseClick(p.refresh_button, QtCore.Qt.MouseButton.LeftButton)
+    assert len(calls) == 2
+    assert combo_texts(p.port_combo) == ["/dev/pts/5 (recent)", LAUNCHPAD[0], "/dev/ttyUSB0"]
 
 
 def test_protocol_getter_and_setter(qtbot):
