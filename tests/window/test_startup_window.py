@@ -8,6 +8,11 @@ garbage collection waits for the first frame. Nothing here is timed: the figures
 from __future__ import annotations
 
 import gc
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 from PySide6 import QtCore, QtWidgets
 
@@ -18,6 +23,7 @@ from tests.window.test_touch_window import make_window
 from widgets.estop import EStopButton, StopGuard
 
 TIMEOUT_MS = 30_000
+REPO = Path(__file__).resolve().parents[2]
 LEFT = QtCore.Qt.MouseButton.LeftButton
 
 
@@ -120,24 +126,35 @@ def test_stop_guard_watches_the_application_from_its_window_s_first_show(qtbot):
         guard.remove()
 
 
-def test_the_simulated_desk_renders_nothing_while_the_window_is_built(qtbot, monkeypatch, tmp_path):
+def test_the_simulated_desk_renders_nothing_while_the_window_is_built(tmp_path):
     """Its frames would be thrown away (the scene starts over once the window is up), and on a
-    Pi-class core its renders would take the CPU the window's start-up needs."""
-    import app.gui
-    from core.session import SessionOptions
+    Pi-class core its renders would take the CPU the window's start-up needs. Run as
+    ``deskarm --screenshot`` runs it, in a process of its own (it runs and quits the application)."""
+    script = f"""
+import json
+import app.gui
+from core.session import SessionOptions
 
-    seen = []
+seen = []
 
-    class Watched(app.gui.MainWindow):
-        def __init__(self, session):
-            seen.append(("building", session.camera.is_connected, session.camera.frames_rendered))
-            super().__init__(session)
-            qtbot.addWidget(self)  # closed at the test's end (take_screenshot only stops it)
-            seen.append(("built", session.camera.is_connected, session.camera.frames_rendered))
 
-    monkeypatch.setattr(app.gui, "MainWindow", Watched)
-    path = tmp_path / "window.png"
-    assert app.gui.take_screenshot(SessionOptions(camera="sim", scenario="wander"), str(path), 1.0, (800, 480)) == 0
-    assert path.is_file()
-    (_, connected, rendered), (_, still_connected, rendered_after) = seen
+class Watched(app.gui.MainWindow):
+    def __init__(self, session):
+        seen.append((session.camera.is_connected, session.camera.frames_rendered))
+        super().__init__(session)
+        seen.append((session.camera.is_connected, session.camera.frames_rendered))
+
+
+app.gui.MainWindow = Watched
+rc = app.gui.take_screenshot(SessionOptions(camera="sim", scenario="wander"), {str(tmp_path / "w.png")!r}, 1.0,
+                             (800, 480))
+print(json.dumps({{"rc": rc, "seen": seen}}))
+"""
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", PYTHONPATH=str(REPO), DESKARM_HOME=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", script], cwd=REPO, env=env, capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    result = json.loads(out.stdout.splitlines()[-1])
+    assert result["rc"] == 0 and (tmp_path / "w.png").is_file()
+    (connected, rendered), (still_connected, rendered_after) = result["seen"]
     assert not connected and not still_connected and rendered_after == rendered
