@@ -238,6 +238,16 @@ def _run_app(seen: dict) -> int:
     import builtins
 
     real_import = builtins.__import__
+    # timed once their module is imported (app.cli imports core.session only when a run needs it)
+    later = {"core.session": ("DeskSession", "create", "session_create")}
+
+    def hook_imported() -> None:
+        for module_name, (owner, attr, key) in list(later.items()):
+            module = sys.modules.get(module_name)
+            if module is not None and hasattr(module, owner):
+                del later[module_name]
+                # a plain function on the class: DeskSession.create(options) calls it unbound
+                _time_calls(getattr(module, owner), attr, seen, key)
 
     def timed_import(name, *args, **kwargs):
         if name == "app.gui" and "app.gui" not in sys.modules:
@@ -249,16 +259,18 @@ def _run_app(seen: dict) -> int:
                 # the window's constructor (a plain function on the class binds like a method)
                 _time_calls(getattr(sys.modules.get("app.gui"), "MainWindow", None), "__init__",
                             seen, "main_window_init")
-        return real_import(name, *args, **kwargs)
+                hook_imported()
+        try:
+            return real_import(name, *args, **kwargs)
+        finally:
+            if later:
+                hook_imported()
 
     builtins.__import__ = timed_import
     from app import cli  # the `deskarm` entry point (app.cli:main)
 
     seen["app_file"] = getattr(sys.modules.get("app"), "__file__", None)  # which checkout: see run_child
-
-    # a plain function on the class: DeskSession.create(options) calls it unbound
-    _time_calls(getattr(sys.modules.get("core.session"), "DeskSession", None), "create", seen,
-                "session_create")
+    hook_imported()  # (an older app.cli imports core.session with itself)
     _time_calls(sys.modules.get("app.startup") or _import_or_none("app.startup"), "show_splash", seen,
                 "show_splash")
     try:

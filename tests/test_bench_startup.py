@@ -17,6 +17,8 @@ def test_one_repetition_gives_finite_ordered_times():
     assert m["app_python"][0] <= m["app_visible"][0] <= m["app_window"][0] <= m["app_frame"][0]
     for key in ("app_import_app_gui", "app_session_create", "app_main_window_init"):
         assert m[key][0] is None or (math.isfinite(m[key][0]) and m[key][0] > 0), (key, m[key])
+    # the session is timed also where app.cli imports it only when the run needs it
+    assert m["app_session_create"][0] is not None
 
 
 def test_rows_name_their_baseline(monkeypatch):
