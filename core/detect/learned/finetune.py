@@ -2,7 +2,8 @@
 Needs torch (the optional ``train`` extra).
 
 * ``net_from_onnx``: the DeskNet inside a deskarm .onnx (its batch norm was folded into the
-  convolutions on export; here each BN is the identity with the folded bias, and stays frozen);
+  convolutions on export; here each BN is the identity with the folded bias, and stays frozen),
+  with the branches of the classes taught on it (``DeskNet.taught``, from its ``architecture``);
 * ``add_classes``: the same network with more class outputs (the old ones keep their weights);
 * ``finetune``: a training loop over a *batch source* (a callable that returns images, boxes,
   labels, difficult — e.g. renders with domain randomisation, or a taught object's frames), with
@@ -23,7 +24,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from core.detect.learned.model import BN_EPS, DeskNet, _flip_batch, detection_loss, make_targets
+from core.detect.learned.model import BN_EPS, DeskNet, TaughtBranch, _flip_batch, detection_loss, make_targets
 
 __all__ = ["net_from_onnx", "add_classes", "finetune", "FinetuneResult", "platt", "apply_platt", "model_names"]
 
@@ -39,7 +40,8 @@ def model_names(path) -> list[str]:
 
 
 def net_from_onnx(path) -> tuple[DeskNet, list[str], dict]:
-    """(network, class names, metadata) of a deskarm .onnx; BN layers hold the identity."""
+    """(network, class names, metadata) of a deskarm .onnx; BN layers hold the identity. The names
+    are the old classes', then the taught ones' (one ``net.taught`` branch each)."""
     import json
 
     import onnx
@@ -50,7 +52,8 @@ def net_from_onnx(path) -> tuple[DeskNet, list[str], dict]:
     weights = {i.name: numpy_helper.to_array(i) for i in model.graph.initializer}
     arch = json.loads(meta.get("architecture", '{"widths": [16, 24, 48, 80], "head_width": 48}'))
     names = model_names(path)
-    net = DeskNet(len(names), arch["widths"], arch["head_width"])
+    taught = arch.get("taught", [])
+    net = DeskNet(len(names) - len(taught), arch["widths"], arch["head_width"])
     for prefix, seq in (("stride8", net.stride8), ("stride16", net.stride16), ("head", net.head)):
         for i, block in enumerate(seq):
             conv, bn = block[0], block[1]
@@ -62,11 +65,21 @@ def net_from_onnx(path) -> tuple[DeskNet, list[str], dict]:
     for name, conv in (("classes", net.classes), ("box", net.box)):
         conv.weight.data = torch.from_numpy(weights[f"{name}.weight"].copy())
         conv.bias.data = torch.from_numpy(weights[f"{name}.bias"].copy())
+    for j, spec in enumerate(taught):
+        branch = TaughtBranch(net.branch_input, int(spec["width"]), spec.get("kernels", (3, 3)))
+        parts = [(str(i), conv) for i, conv in enumerate(branch.layers)]
+        for part, conv in parts + [("score", branch.score), ("box", branch.box)]:
+            conv.weight.data = torch.from_numpy(weights[f"taught{j}.{part}.weight"].copy())
+            conv.bias.data = torch.from_numpy(weights[f"taught{j}.{part}.bias"].copy())
+        net.add_taught(branch)
     return net.eval(), names, meta
 
 
 def add_classes(net: DeskNet, extra: int) -> DeskNet:
     """``net`` with ``extra`` more class outputs (new ones start at p = 0.01 everywhere)."""
+    if len(net.taught):
+        raise ValueError("this model has taught classes (their names follow the old ones'): teach the new "
+                         "classes too (core.detect.learned.teach) instead of adding outputs")
     old = net.classes
     new = nn.Conv2d(old.in_channels, old.out_channels + extra, 1)
     with torch.no_grad():

@@ -16,12 +16,12 @@ family, trained from scratch:
 The exported graph decodes its own boxes and writes the YOLOv8 layout ``(1, 4 + C, H·W)``: rows
 cx, cy, w, h in input pixels, then the C class scores (sigmoids). Batch norm is folded into the
 convolutions, and the graph holds only Conv, Relu, Resize (nearest), Concat, Sigmoid, Clip, Exp,
-Add and Reshape, which OpenCV's DNN module runs. The class names go into the model's ``names``
+Add and Reshape, which OpenCV's DNN module runs (``core.detect.learned.onnx_graph`` builds it; a class
+taught later adds a branch of its own there and H·W more rows). The class names go into the model's ``names``
 metadata the way ultralytics writes them, so the detector labels boxes without a classes file.
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import time
@@ -34,11 +34,11 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-__all__ = ["DeskNet", "TrainConfig", "TrainResult", "STRIDE", "make_targets", "detection_loss", "decode",
-           "train_detector", "export_onnx", "fold_batch_norm"]
+from core.detect.learned.onnx_graph import MAX_LOG_DISTANCE, STRIDE, build_desk_onnx
 
-STRIDE = 8  # px of the network input per output cell
-MAX_LOG_DISTANCE = 6.0  # raw box outputs are clipped to ±this before exp (e^6 · 8 px ≈ 3200 px)
+__all__ = ["DeskNet", "TaughtBranch", "TrainConfig", "TrainResult", "STRIDE", "make_targets", "detection_loss",
+           "decode", "train_detector", "export_onnx", "fold_batch_norm", "net_layers"]
+
 HEAT_SIGMA_MIN_CELLS = 0.6  # a centre's Gaussian is at least this wide (in cells) ...
 HEAT_SIGMA_PER_SIZE = 0.15  # ... and this fraction of the box's size (in cells) for larger boxes
 REGRESS_MIN_HEAT = 0.2  # cells whose heat for an object reaches this learn its box
@@ -57,8 +57,37 @@ class ConvBnRelu(nn.Sequential):
                          nn.BatchNorm2d(c_out, eps=BN_EPS), nn.ReLU(inplace=True))
 
 
+class TaughtBranch(nn.Module):
+    """A taught class's own layers (``core.detect.learned.teach``): conv-ReLU layers (a 1×1 that
+    narrows the backbone's and head's features, then 3×3s) and its score logit (B, 1, H, W) and its
+    own box (B, 4, H, W, raw distances as DeskNet's)."""
+
+    def __init__(self, c_in: int, width: int = 32, kernels: Sequence[int] = (1, 3, 3)):
+        super().__init__()
+        self.width = int(width)
+        self.kernels = tuple(int(k) for k in kernels)
+        self.layers = nn.ModuleList(nn.Conv2d(c_in if i == 0 else width, width, k, padding=k // 2)
+                                    for i, k in enumerate(self.kernels))
+        self.score = nn.Conv2d(width, 1, 1)
+        self.box = nn.Conv2d(width, 4, 1)
+        nn.init.constant_(self.score.bias, -math.log((1 - 0.01) / 0.01))
+        nn.init.normal_(self.score.weight, std=0.01)
+        nn.init.normal_(self.box.weight, std=0.01)
+        nn.init.constant_(self.box.bias, math.log(2.0))
+
+    def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = features
+        for conv in self.layers:
+            x = F.relu(conv(x))
+        return self.score(x), self.box(x)
+
+
 class DeskNet(nn.Module):
-    """Image (B, 3, H, W) in 0…1, RGB → (class logits (B, C, H/8, W/8), box raw (B, 4, H/8, W/8))."""
+    """Image (B, 3, H, W) in 0…1, RGB → (class logits (B, C, H/8, W/8), box raw (B, 4, H/8, W/8)).
+
+    ``taught``: the branches of classes taught later (``TaughtBranch``, each on ``branch_input``),
+    which ``forward`` leaves out (``forward_taught`` runs them) and ``export_onnx`` exports as more
+    candidate rows (their class names follow the old ones in the model's names)."""
 
     def __init__(self, num_classes: int, widths: Sequence[int] = (16, 24, 48, 80), head_width: int = 48):
         super().__init__()
@@ -76,18 +105,43 @@ class DeskNet(nn.Module):
         nn.init.constant_(self.classes.bias, -math.log((1 - 0.01) / 0.01))
         nn.init.normal_(self.box.weight, std=0.01)
         nn.init.constant_(self.box.bias, math.log(2.0))  # boxes start 2 cells from the centre each way
+        self.taught = nn.ModuleList()
 
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    @property
+    def branch_input(self) -> int:
+        """Channels a taught branch sees: the backbone's (stride 8 + upsampled stride 16) and the head's."""
+        return self.widths[2] + self.widths[3] + self.head_width
+
+    def features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(backbone features (B, c + d, H/8, W/8), head output (B, head_width, H/8, W/8))."""
         f8 = self.stride8(x)
         f16 = self.stride16(f8)
-        up = F.interpolate(f16, scale_factor=2.0, mode="nearest")
-        h = self.head(torch.cat([f8, up], dim=1))
+        cat = torch.cat([f8, F.interpolate(f16, scale_factor=2.0, mode="nearest")], dim=1)
+        return cat, self.head(cat)
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        _, h = self.features(x)
         return self.classes(h), self.box(h)
+
+    def forward_taught(self, x: torch.Tensor) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        """(score logit, box raw) of each taught branch."""
+        cat, h = self.features(x)
+        both = torch.cat([cat, h], dim=1)
+        return [branch(both) for branch in self.taught]
+
+    def add_taught(self, branch: "TaughtBranch") -> None:
+        """One more taught class, with its own branch (its name goes after the others')."""
+        if branch.layers[0].in_channels != self.branch_input:
+            raise ValueError(f"a taught branch on {branch.layers[0].in_channels} channels: this network's "
+                             f"branches see {self.branch_input}")
+        self.taught.append(branch)
 
 
 def _grid(h: int, w: int, stride: int = STRIDE) -> tuple[np.ndarray, np.ndarray]:
     """Cell centres (x (W,), y (H,)) in input pixels: cell i's centre is at (i + 0.5) · stride."""
-    return (np.arange(w) + 0.5) * stride, (np.arange(h) + 0.5) * stride
+    from core.detect.learned.onnx_graph import grid_centres
+
+    return grid_centres(h, w, stride)
 
 
 def decode(class_logits: torch.Tensor, box_raw: torch.Tensor, stride: int = STRIDE) -> torch.Tensor:
@@ -359,93 +413,48 @@ def fold_batch_norm(block: ConvBnRelu) -> tuple[np.ndarray, np.ndarray]:
     return weight.numpy().astype(np.float32), bias.numpy().astype(np.float32)
 
 
+def net_layers(net: DeskNet, names: Sequence[str]) -> tuple[dict, dict]:
+    """(layers, architecture) of ``net`` as ``onnx_graph.build_desk_onnx`` takes them (BN folded)."""
+    net = net.eval()
+    if len(names) != net.num_classes + len(net.taught):
+        raise ValueError(f"{len(names)} class names for a network with {net.num_classes} classes and "
+                         f"{len(net.taught)} taught")
+    layers = {}
+    for prefix, seq in (("stride8", net.stride8), ("stride16", net.stride16), ("head", net.head)):
+        for i, block in enumerate(seq):
+            wgt, b = fold_batch_norm(block)
+            layers[f"{prefix}.{i}"] = (wgt, b, block[0].stride[0])
+
+    def plain(conv: nn.Conv2d) -> tuple:
+        return conv.weight.detach().numpy().astype(np.float32), conv.bias.detach().numpy().astype(np.float32), 1
+
+    layers["classes"], layers["box"] = plain(net.classes), plain(net.box)
+    taught = []
+    for j, (branch, name) in enumerate(zip(net.taught, names[net.num_classes:])):
+        for i, conv in enumerate(branch.layers):
+            layers[f"taught{j}.{i}"] = plain(conv)
+        layers[f"taught{j}.score"], layers[f"taught{j}.box"] = plain(branch.score), plain(branch.box)
+        taught.append({"name": str(name), "width": branch.width, "kernels": list(branch.kernels)})
+    arch = {"widths": list(net.widths), "head_width": net.head_width}
+    if taught:
+        arch["taught"] = taught
+    return layers, arch
+
+
 def export_onnx(net: DeskNet, path: str | os.PathLike, names: Sequence[str], input_wh: tuple[int, int],
                 metadata: Optional[dict] = None, opset: int = 17) -> Path:
     """Write ``net`` as an ONNX model with a fixed (1, 3, H, W) input "images" and the YOLOv8 output
-    (1, 4 + C, H/8 · W/8) "output0"; ``names`` go into the ``names`` metadata
-    ("{0: 'ball', 1: 'cup'}"), plus ``imgsz``, ``stride`` and any ``metadata`` (str() of values,
-    dicts as JSON). Needs the ``onnx`` package. Returns the path."""
+    (1, 4 + C, H/8 · W/8) "output0" — (1, 4 + C, (1 + T) · H/8 · W/8) with T taught branches
+    (``core.detect.learned.onnx_graph``); ``names`` (the old classes, then the taught ones) go into
+    the ``names`` metadata ("{0: 'ball', 1: 'cup'}"), plus ``imgsz``, ``stride``, ``architecture``
+    and any ``metadata`` (str() of values, dicts as JSON). Needs the ``onnx`` package. Returns the path."""
     try:
-        import onnx
-        from onnx import TensorProto, helper, numpy_helper
+        import onnx  # noqa: F401
     except ImportError:
         raise ImportError("exporting the detector needs the onnx package: pip install onnx "
                           "(it is in deskarm's train and test extras)") from None
-    net = net.eval()
-    w, h = (int(v) for v in input_wh)
-    if h % 16 or w % 16:
-        raise ValueError(f"input {w}x{h}: width and height must be multiples of 16")
-    num_classes = len(names)
-    if num_classes != net.num_classes:
-        raise ValueError(f"{len(names)} class names for a network with {net.num_classes} classes")
-    gh, gw = h // STRIDE, w // STRIDE
-    nodes, inits = [], []
-
-    def const(name: str, array: np.ndarray) -> str:
-        inits.append(numpy_helper.from_array(np.ascontiguousarray(array), name))
-        return name
-
-    def conv(x: str, name: str, weight: np.ndarray, bias: np.ndarray, stride: int = 1, relu: bool = True) -> str:
-        k = weight.shape[-1]
-        out = f"{name}_conv" if relu else name
-        nodes.append(helper.make_node("Conv", [x, const(f"{name}.weight", weight), const(f"{name}.bias", bias)],
-                                      [out], name=f"{name}/Conv", kernel_shape=[k, k], strides=[stride, stride],
-                                      pads=[k // 2] * 4))
-        if not relu:
-            return out
-        nodes.append(helper.make_node("Relu", [out], [name], name=f"{name}/Relu"))
-        return name
-
-    def blocks(x: str, seq: nn.Sequential, prefix: str) -> str:
-        for i, block in enumerate(seq):
-            wgt, b = fold_batch_norm(block)
-            x = conv(x, f"{prefix}.{i}", wgt, b, stride=block[0].stride[0])
-        return x
-
-    f8 = blocks("images", net.stride8, "stride8")
-    f16 = blocks(f8, net.stride16, "stride16")
-    nodes.append(helper.make_node("Resize", [f16, "", const("up.scales", np.array([1, 1, 2, 2], np.float32))],
-                                  ["up"], name="up/Resize", mode="nearest"))
-    nodes.append(helper.make_node("Concat", [f8, "up"], ["cat"], name="cat/Concat", axis=1))
-    hx = blocks("cat", net.head, "head")
-    cls = conv(hx, "classes", net.classes.weight.detach().numpy(), net.classes.bias.detach().numpy(), relu=False)
-    nodes.append(helper.make_node("Sigmoid", [cls], ["scores"], name="scores/Sigmoid"))
-    raw = conv(hx, "box", net.box.weight.detach().numpy(), net.box.bias.detach().numpy(), relu=False)
-    nodes.append(helper.make_node("Clip", [raw, const("clip.min", np.array(-MAX_LOG_DISTANCE, np.float32)),
-                                           const("clip.max", np.array(MAX_LOG_DISTANCE, np.float32))],
-                                  ["box_clipped"], name="box/Clip"))
-    nodes.append(helper.make_node("Exp", ["box_clipped"], ["ltrb"], name="box/Exp"))
-    # (l, t, r, b) distances → (cx − gx, cy − gy, w, h), times the stride, as a fixed 1×1 convolution
-    mix = STRIDE * np.array([[-0.5, 0, 0.5, 0], [0, -0.5, 0, 0.5], [1, 0, 1, 0], [0, 1, 0, 1]], np.float32)
-    nodes.append(helper.make_node("Conv", ["ltrb", const("decode.weight", mix.reshape(4, 4, 1, 1)),
-                                           const("decode.bias", np.zeros(4, np.float32))], ["cxcywh_rel"],
-                                  name="decode/Conv", kernel_shape=[1, 1]))
-    gx, gy = _grid(gh, gw)
-    grid = np.zeros((1, 4, gh, gw), np.float32)
-    grid[0, 0] = gx[None, :]
-    grid[0, 1] = gy[:, None]
-    nodes.append(helper.make_node("Add", ["cxcywh_rel", const("decode.grid", grid)], ["cxcywh"], name="decode/Add"))
-    nodes.append(helper.make_node("Concat", ["cxcywh", "scores"], ["rows"], name="rows/Concat", axis=1))
-    nodes.append(helper.make_node("Reshape", ["rows", const("output.shape", np.array([1, 4 + num_classes, gh * gw],
-                                                                                   np.int64))],
-                                  ["output0"], name="output0/Reshape"))
-    graph = helper.make_graph(
-        nodes, "deskarm_desk_detector",
-        [helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, h, w])],
-        [helper.make_tensor_value_info("output0", TensorProto.FLOAT, [1, 4 + num_classes, gh * gw])],
-        initializer=inits)
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)],
-                              producer_name="deskarm", producer_version="1")
-    model.ir_version = 8
-    meta = {"names": repr({i: str(n) for i, n in enumerate(names)}), "imgsz": f"[{h}, {w}]", "stride": str(STRIDE),
-            "task": "detect", "batch": "1",
-            "description": "deskarm desk-object detector (CenterNet-style, stride 8), trained on simulated renders",
-            "author": "deskarm", "license": "MIT",
-            "architecture": json.dumps({"widths": list(net.widths), "head_width": net.head_width})}
-    for key, value in (metadata or {}).items():
-        meta[str(key)] = json.dumps(value) if isinstance(value, (dict, list)) else str(value)
-    helper.set_model_props(model, meta)
-    onnx.checker.check_model(model)
+    layers, arch = net_layers(net, names)
+    model = build_desk_onnx(layers, arch, names, input_wh, metadata, opset)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     from core.paths import write_file_atomically

@@ -3,19 +3,24 @@
 A user shows the object to the camera, moving it, and marks it in a few frames (a box, or a tap
 on it). ``carry_boxes`` lets a tracker (``core.detect.tracking.ObjectTracker``) carry each mark
 through the frames that follow it (until the next mark), so ≤ 10 marks label ≤ 60 frames.
-``teach`` then extends the current desk model on CPU: one more class output fed by new head
-channels of its own (``widen_for_new_class``), trained — the backbone and every old weight frozen,
-so the old classes' scores and boxes stay exactly what they were — on domain-randomised copies of
-the frames (``core.detect.learned.randomise``: white balance, exposure, blur, noise, JPEG, lens
-distortion, other backgrounds) and on negatives (textures, and the frames with the object painted
-out). The boxes stay the old model's unless ``TeachConfig.learn_boxes`` (then the old classes'
-boxes move a little: on the simulated desk their mAP fell from 0.97 to 0.81). The new
+``teach`` then extends the current desk model on CPU with a branch of the new class's own
+(``core.detect.learned.model.TaughtBranch``: two 3×3 layers on the frozen backbone's and head's
+features, its own score and its own box, trained with the focal and GIoU losses of
+``model.detection_loss``), exported as candidate rows of its own (``onnx_graph``): every old
+output is computed by the same nodes as before, so the old classes' boxes and scores stay exactly
+what they were, and a second class can be taught on top (``finetune.net_from_onnx`` reads the
+branches back). It learns from domain-randomised copies of the frames (mirrored, zoomed and
+shifted; ``core.detect.learned.randomise``: white balance, exposure, blur, noise, JPEG, lens
+distortion, other backgrounds; a second copy pasted in, a side covered) and negatives (the frames
+with the object painted out, textures, renders of the simulated desk holding only what the model
+already knows), the cells it wrongly likes mined again and again as the run goes (hard negatives). The new
 model is written to the user's config folder (``user_dir("config")/models``): ``desk_objects.onnx``
 (what ``make_detector("desk")`` loads from then on) and ``<name>.onnx``; the model it replaced is
 kept as ``desk_objects.previous.onnx``. A cancelled run (``cancelled()`` True) writes nothing.
 """
 from __future__ import annotations
 
+import json
 import math
 import re
 import time
@@ -26,13 +31,20 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 __all__ = ["TeachConfig", "TeachResult", "Mark", "carry_boxes", "box_from_tap", "teach", "user_model_dir",
-           "user_model_path", "valid_name", "read_marks", "MAX_FRAMES", "MAX_MARKS"]
+           "user_model_path", "valid_name", "read_marks", "desk_negatives", "MAX_FRAMES", "MAX_MARKS"]
 
 MAX_FRAMES = 60
 MAX_MARKS = 10
-SILENT_HEAT = 0.05  # cells where the new object's heat target is below this: its channels should be silent
-BOX_KEEP_WEIGHT = 5.0  # how hard the old boxes are kept there
-SILENCE_WEIGHT = 0.5  # and the new channels kept silent
+SILENT_HEAT = 0.05  # cells where the new object's heat target is below this are not it (hard negatives)
+MINE_AT = (0.3, 0.55, 0.8)  # fractions of the run at which the hard negative cells are looked for again
+HARD_PER_IMAGE = 3  # at most this many per image
+HARD_MIN_SCORE = 0.05  # scored at least this
+HARD_SHARE = 0.4  # share of each batch's windows around a hard negative cell (once found)
+MINE_IMAGES = 256  # images looked at each time (the others keep the cells found before)
+TURN = 0.3  # share of the copies with the object flipped upside down or turned half round in its box
+COPY_PASTE = 0.4  # share of the copies with one more of the object pasted somewhere
+OCCLUDE = 0.3  # share of the copies with a side of the object covered
+DESK_NEGATIVES_FIRST_SEED = 500_000  # their scenes: training seeds (below the held-out ones)
 NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _-]{0,31}$")
 
 
@@ -143,16 +155,26 @@ def carry_boxes(frames: Sequence[np.ndarray], marks: Sequence[Mark], tracker: st
 
 @dataclass(frozen=True)
 class TeachConfig:
-    steps: int = 2000  # batches of fine-tuning (on cached backbone features: cheap)
-    max_seconds: float = 240.0  # and at most this long
+    steps: int = 4000  # batches of training (on cached backbone features: cheap); the time limit may stop earlier
+    max_seconds: float = 240.0  # wall-time budget of the whole run, preparation included (0: no limit)
     batch_size: int = 16
-    learning_rate: float = 2e-3
-    copies: int = 320  # randomised images of the object made up front (the frames, flipped, recoloured …)
-    negative_share: float = 0.4  # and this share more without it
-    new_channels: int = 32  # head channels added for the new class (the old ones are kept as they are)
-    learn_boxes: bool = False  # also learn the new object's boxes (through the new channels; the old boxes move a little)
+    learning_rate: float = 3e-3  # Adam peak, cosine down to 5 % of it
+    copies: int = 480  # randomised images of the object made up front (flipped, zoomed, recoloured …)
+    negative_share: float = 0.5  # and this share more without it
+    desk_negatives: int = 96  # and renders of the simulated desk with only the classes the model knows
+    branch_width: int = 32  # channels of the new class's own layers
+    branch_kernels: tuple[int, ...] = (3, 3)  # their kernel sizes
+    crop_cells: int = 16  # each step trains on windows of this many cells (or the object's size and 4 more)
     seed: int = 0
-    threads: int = 1
+    threads: int = 1  # torch's and OpenCV's CPU threads (2 made a step 14× slower on a machine busy with other work)
+
+    def __post_init__(self) -> None:
+        if self.steps < 1 or self.batch_size < 1 or self.copies < 1:
+            raise ValueError(f"steps = {self.steps}, batch_size = {self.batch_size} and copies = {self.copies} "
+                             f"must be ≥ 1")
+        if self.max_seconds < 0 or not 0 <= self.negative_share <= 4:
+            raise ValueError(f"max_seconds = {self.max_seconds} must be ≥ 0 and negative_share = "
+                             f"{self.negative_share} in 0 … 4")
 
 
 @dataclass
@@ -164,6 +186,7 @@ class TeachResult:
     steps: int
     frames_used: int
     copies: list[Path] = field(default_factory=list)
+    images: int = 0  # positives and negatives the branch trained on
 
 
 def _letterbox_boxes(frames, boxes, input_wh):
@@ -178,66 +201,212 @@ def _letterbox_boxes(frames, boxes, input_wh):
     return xs, bs
 
 
-def widen_for_new_class(net, extra: int):
-    """``net`` with one more class output fed by ``extra`` new head channels, and the gradient masks
-    that keep every old output exactly as it was: old head channels see only old inputs, the old
-    classes and the box output see only old channels (new ones start at zero, and only the new
-    class row and the box output's new columns learn on top of them)."""
+def _zoom(rng: np.random.Generator, img: np.ndarray, box: np.ndarray, zoom=(0.7, 1.4)):
+    """The image scaled by a random factor and shifted so the object lands anywhere (wholly) in it;
+    (image, box). What the shift uncovers is the letterbox grey."""
+    import cv2
+
+    h, w = img.shape[:2]
+    x0, y0, x1, y1 = (float(v) for v in box[0])
+    bw, bh = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
+    s = float(min(rng.uniform(*zoom), 0.95 * w / bw, 0.95 * h / bh))
+    nx0 = rng.uniform(0, max(w - s * bw, 0.0))
+    ny0 = rng.uniform(0, max(h - s * bh, 0.0))
+    tx, ty = nx0 - s * x0, ny0 - s * y0
+    out = cv2.warpAffine(img, np.array([[s, 0, tx], [0, s, ty]], np.float32), (w, h), flags=cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=(114, 114, 114))
+    return out, np.array([[nx0, ny0, nx0 + s * bw, ny0 + s * bh]], np.float32)
+
+
+def _paint_out(rng: np.random.Generator, img: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """The image without the object: its box (and a margin) inpainted or covered by a texture."""
+    import cv2
+
+    from core.detect.learned.randomise import texture
+
+    h, w = img.shape[:2]
+    x0, y0, x1, y1 = (float(v) for v in box[0])
+    m = 0.12 * max(x1 - x0, y1 - y0)
+    x0, y0 = int(max(0, x0 - m)), int(max(0, y0 - m))
+    x1, y1 = int(min(w, max(x1 + m, x0 + 1))), int(min(h, max(y1 + m, y0 + 1)))
+    out = img.copy()
+    if rng.random() < 0.6:
+        mask = np.zeros((h, w), np.uint8)
+        mask[y0:y1, x0:x1] = 255
+        return cv2.inpaint(out, mask, 5, cv2.INPAINT_TELEA)
+    out[y0:y1, x0:x1] = texture(rng, y1 - y0, x1 - x0)
+    return out
+
+
+def _paste_copy(rng: np.random.Generator, img: np.ndarray, boxes: np.ndarray, patch: np.ndarray):
+    """``img`` with one more copy of the object (``patch``, its crop, rescaled 0.8–1.2) somewhere,
+    feathered in; (image, boxes with the copy's)."""
+    import cv2
+
+    h, w = img.shape[:2]
+    s = rng.uniform(0.8, 1.2)
+    pw, ph = max(2, int(patch.shape[1] * s)), max(2, int(patch.shape[0] * s))
+    if pw >= w or ph >= h:
+        return img, boxes
+    patch = cv2.resize(patch, (pw, ph), interpolation=cv2.INTER_LINEAR)
+    for _ in range(8):  # a place that hides at most a third of each object already there
+        x0, y0 = int(rng.integers(0, w - pw + 1)), int(rng.integers(0, h - ph + 1))
+        ix = np.clip(np.minimum(boxes[:, 2], x0 + pw) - np.maximum(boxes[:, 0], x0), 0, None)
+        iy = np.clip(np.minimum(boxes[:, 3], y0 + ph) - np.maximum(boxes[:, 1], y0), 0, None)
+        area = np.maximum((boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1]), 1.0)
+        if np.all(ix * iy / area <= 1 / 3):
+            break
+    else:
+        return img, boxes
+    mask = np.zeros((ph, pw), np.float32)
+    mask[1:-1, 1:-1] = 1.0
+    mask = cv2.GaussianBlur(mask, (0, 0), 0.8)[..., None]
+    out = img.copy()
+    region = out[y0:y0 + ph, x0:x0 + pw].astype(np.float32)
+    out[y0:y0 + ph, x0:x0 + pw] = np.clip(patch * mask + region * (1 - mask), 0, 255).astype(np.uint8)
+    return out, np.concatenate([boxes, np.array([[x0, y0, x0 + pw, y0 + ph]], np.float32)])
+
+
+def _occlude(rng: np.random.Generator, img: np.ndarray, box: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """``img`` with a side of the object (15–45 % of its box) covered by a patch of ``source``
+    taken anywhere (another thing on the desk, the desk, a hand …): partly hidden views."""
+    h, w = img.shape[:2]
+    x0, y0, x1, y1 = (int(v) for v in box)
+    x0, y0, x1, y1 = max(0, x0), max(0, y0), min(w, x1), min(h, y1)
+    bw, bh = x1 - x0, y1 - y0
+    if bw < 4 or bh < 4:
+        return img
+    f = rng.uniform(0.15, 0.45)
+    side = int(rng.integers(4))
+    if side == 0:
+        r = (x0, y0, x0 + int(bw * f), y1)
+    elif side == 1:
+        r = (x1 - int(bw * f), y0, x1, y1)
+    elif side == 2:
+        r = (x0, y0, x1, y0 + int(bh * f))
+    else:
+        r = (x0, y1 - int(bh * f), x1, y1)
+    rw, rh = r[2] - r[0], r[3] - r[1]
+    if rw < 1 or rh < 1:
+        return img
+    sx, sy = int(rng.integers(0, w - rw + 1)), int(rng.integers(0, h - rh + 1))
+    out = img.copy()
+    out[r[1]:r[3], r[0]:r[2]] = source[sy:sy + rh, sx:sx + rw]
+    return out
+
+
+def desk_negatives(count: int, input_wh: tuple[int, int], first_seed: int = 0) -> list[np.ndarray]:
+    """``count`` renders of the simulated desk holding only what the model already knows (its
+    classes' objects, lift panels, door handles, the arm; the cards and hands taken out),
+    letterboxed to ``input_wh``: negatives that teach a new class it is none of the old ones."""
+    from dataclasses import replace
+
+    from core.detect.onnx_yolo import letterbox
+    from core.sim.dataset import _FixedScene, desk_for, random_scene, training_seeds
+
+    desks, out = {}, []
+    for seed in training_seeds(count, first_seed):
+        state, settings, arm, index = random_scene(seed)
+        if index not in desks:
+            desks[index] = desk_for(index)
+        desk = desks[index]
+        desk.set_scenario(_FixedScene(desk.marker_ids, replace(state, cards=(), hands=())))
+        desk.set_camera_settings(settings)
+        left, right, _ = desk.render(float(seed), arm)
+        out.append(letterbox(left if seed % 2 == 0 else right, input_wh)[0])
+    return out
+
+
+def _pool(rng, xs, bs, usable, config: TeachConfig, w: int, h: int, cancelled):
+    """The images the new branch learns from: (images, boxes (K, 4) each), or None when cancelled.
+
+    Positives: every marked or tracked frame as it is, then copies — mirrored half the time, zoomed
+    and shifted, domain-randomised (``randomise``: white balance, exposure, blur, noise, JPEG, lens,
+    other backgrounds), some with a second one pasted in or a side covered. Negatives: the frames
+    with the object painted out (zoomed too), textures, renders of the desk (``desk_negatives``)."""
+    from core.detect.learned.randomise import camera_effects, randomise, texture
+
+    images, boxes = [], []
+    for k in range(config.copies):
+        if cancelled is not None and k % 16 == 0 and cancelled():
+            return None
+        i = usable[k % len(usable)]
+        img, b = xs[i], bs[i]
+        if k >= len(usable):  # every frame once as it is, then randomised copies
+            if rng.random() < 0.5:
+                img = img[:, ::-1].copy()
+                b = np.array([[w - b[0, 2], b[0, 1], w - b[0, 0], b[0, 3]]], np.float32)
+            if rng.random() < 0.8:
+                img, b = _zoom(rng, img, b)
+            if rng.random() < TURN:  # the object itself turned over in its box (another side, another print)
+                b0 = b[0]
+                x0, y0 = int(max(0, round(float(b0[0])))), int(max(0, round(float(b0[1]))))
+                x1, y1 = int(min(w, round(float(b0[2])))), int(min(h, round(float(b0[3]))))
+                if x1 - x0 > 2 and y1 - y0 > 2:
+                    img = img.copy()
+                    part = img[y0:y1, x0:x1]
+                    img[y0:y1, x0:x1] = part[::-1].copy() if rng.random() < 0.5 else part[::-1, ::-1].copy()
+            if rng.random() < COPY_PASTE:  # another one of it (from any frame), anywhere
+                j = usable[int(rng.integers(len(usable)))]
+                x0, y0, x1, y1 = (int(round(float(v))) for v in bs[j][0])
+                patch = xs[j][max(0, y0):max(y1, y0 + 2), max(0, x0):max(x1, x0 + 2)]
+                if rng.random() < 0.5:
+                    patch = patch[:, ::-1]
+                img, b = _paste_copy(rng, img, b, patch)
+            if rng.random() < OCCLUDE:  # partly hidden by something
+                source = xs[usable[int(rng.integers(len(usable)))]]
+                img = _occlude(rng, img, b[int(rng.integers(len(b)))], source)
+            img, b, _, _ = randomise(rng, img, b, np.zeros(len(b), np.int64), np.zeros(len(b), bool),
+                                     distractors=False)
+            if len(b) == 0:  # the background paste dropped it
+                continue
+        images.append(img)
+        boxes.append(np.asarray(b, np.float32).reshape(-1, 4))
+    for k in range(int(config.copies * config.negative_share)):
+        if cancelled is not None and k % 16 == 0 and cancelled():
+            return None
+        if k % 4 == 3:
+            img = texture(rng, h, w)
+        else:
+            j = usable[int(rng.integers(len(usable)))]
+            img, b = xs[j], bs[j]
+            if rng.random() < 0.5:
+                img, b = _zoom(rng, img, b)
+            img = _paint_out(rng, img, b)
+            if rng.random() < 0.5:
+                img = img[:, ::-1].copy()
+        images.append(camera_effects(rng, img))
+        boxes.append(np.zeros((0, 4), np.float32))
+    if config.desk_negatives:
+        for img in desk_negatives(config.desk_negatives, (w, h), DESK_NEGATIVES_FIRST_SEED + 1000 * config.seed):
+            if rng.random() < 0.5:
+                img = img[:, ::-1].copy()
+            images.append(camera_effects(rng, img, 0.5))
+            boxes.append(np.zeros((0, 4), np.float32))
+    return images, boxes
+
+
+def _features(backbone, images, cancelled, say, t_start):
+    """The features (N, C, H, W) float16 the ``backbone`` (an OpenCV DNN net) computes for each
+    image, or None when cancelled."""
+    import cv2
     import torch
-    import torch.nn as nn
 
-    from core.detect.learned.model import BN_EPS, ConvBnRelu
-
-    hw = net.head_width
-    cin = net.head[0][0].in_channels
-    new_w = hw + extra
-    h0, h1 = ConvBnRelu(cin, new_w, 1), ConvBnRelu(new_w, new_w, 3)
-    masks = {}
-    with torch.no_grad():
-        for new, old in ((h0, net.head[0]), (h1, net.head[1])):
-            new[1].weight.fill_(1.0)
-            new[1].bias.zero_()
-            new[1].running_mean.zero_()
-            new[1].running_var.fill_(1.0 - BN_EPS)
-            new[1].bias[:hw] = old[1].bias
-            new[1].weight[:hw] = old[1].weight
-            new[1].running_mean[:hw] = old[1].running_mean
-            new[1].running_var[:hw] = old[1].running_var
-        nn.init.kaiming_normal_(h0[0].weight, nonlinearity="relu")
-        h0[0].weight[:hw] = net.head[0][0].weight
-        nn.init.kaiming_normal_(h1[0].weight, nonlinearity="relu")
-        h1[0].weight[:hw] = 0.0
-        h1[0].weight[:hw, :hw] = net.head[1][0].weight
-        m0 = torch.zeros_like(h0[0].weight)
-        m0[hw:] = 1.0
-        m1 = torch.zeros_like(h1[0].weight)
-        m1[hw:] = 1.0
-        bn_mask = torch.zeros(new_w)
-        bn_mask[hw:] = 1.0
-        old_cls = net.classes
-        cls = nn.Conv2d(new_w, old_cls.out_channels + 1, 1)
-        cls.weight.zero_()
-        cls.weight[:old_cls.out_channels, :hw] = old_cls.weight
-        cls.bias[:old_cls.out_channels] = old_cls.bias
-        nn.init.normal_(cls.weight[old_cls.out_channels:], std=0.01)
-        cls.bias[old_cls.out_channels:] = -math.log((1 - 0.01) / 0.01)
-        mc = torch.zeros_like(cls.weight)
-        mc[old_cls.out_channels:] = 1.0
-        mcb = torch.zeros_like(cls.bias)
-        mcb[old_cls.out_channels:] = 1.0
-        box = nn.Conv2d(new_w, 4, 1)
-        box.weight.zero_()
-        box.weight[:, :hw] = net.box.weight
-        box.bias.copy_(net.box.bias)
-        mb = torch.zeros_like(box.weight)
-        mb[:, hw:] = 1.0
-    net.head = nn.Sequential(h0, h1)
-    net.classes, net.box = cls, box
-    net.head_width = new_w
-    net.num_classes = cls.out_channels
-    masks = {h0[0].weight: m0, h1[0].weight: m1, h0[1].weight: bn_mask, h0[1].bias: bn_mask,
-             h1[1].weight: bn_mask, h1[1].bias: bn_mask, cls.weight: mc, cls.bias: mcb, box.weight: mb}
-    return net, masks
+    n = len(images)
+    feats = None
+    for a in range(n):
+        if cancelled is not None and a % 16 == 0 and cancelled():
+            return None
+        backbone.setInput(cv2.dnn.blobFromImage(images[a], 1 / 255.0, swapRB=True))
+        out = torch.from_numpy(backbone.forward())
+        if feats is None:
+            feats = torch.empty((n, *out.shape[1:]), dtype=torch.float16)
+        feats[a] = out[0]
+        if a % 16 == 15 or a == n - 1:
+            done = 0.25 * (a + 1) / n
+            el = time.perf_counter() - t_start
+            say(done, el / max(done, 1e-6) * (1 - done), f"looking at {a + 1}/{n} images")
+    return feats
 
 
 def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, base_model=None,
@@ -248,15 +417,16 @@ def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, bas
     from per-frame ``boxes`` already known. ``base_model``: the .onnx to extend (default the user's
     model, else the shipped one). Returns None when cancelled (nothing written).
 
-    The old classes' outputs stay exactly what they were: the new class gets head channels of its
-    own (``widen_for_new_class``). The backbone is frozen, so its features of the randomised
-    copies are computed once; the steps then train only the new channels (a few ms each)."""
+    The new class gets a branch of its own (``core.detect.learned.model.TaughtBranch``: two 3×3
+    layers on the frozen backbone's and head's features, its own score and its own box), exported
+    as candidate rows of its own; every old output is computed as before. The features of the
+    randomised copies are computed once; the steps then train only the branch (on windows of the
+    feature map around the object and anywhere in the negatives), for ``config.steps`` or until
+    ``config.max_seconds`` of wall time have passed since the start, whichever is first."""
     import torch
-    import torch.nn.functional as F
 
     from core.detect.learned import finetune as ft
-    from core.detect.learned.model import detection_loss, make_targets
-    from core.detect.learned.randomise import camera_effects, randomise, texture
+    from core.detect.learned.model import STRIDE, TaughtBranch, detection_loss, make_targets
     from core.detect.learned.shipped import shipped_model_path
 
     name = valid_name(name)
@@ -289,134 +459,157 @@ def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, bas
     torch.set_num_threads(int(config.threads))
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
-    # the pool: randomised copies of the frames (half of them mirrored), and negatives — textures
-    # and the frames with the object painted out
-    images, targets_boxes = [], []
-    for k in range(config.copies):
-        i = usable[k % len(usable)]
-        img, b = xs[i], bs[i]
-        if k % 2:
-            img = img[:, ::-1].copy()
-            b = np.array([[w - b[0, 2], b[0, 1], w - b[0, 0], b[0, 3]]], np.float32)
-        if k >= len(usable):  # every frame once as it is, then randomised copies
-            img, b, _, _ = randomise(rng, img, b, np.zeros(1, np.int64), np.zeros(1, bool), distractors=False)
-        images.append(img)
-        targets_boxes.append(b)
-    for k in range(int(config.copies * config.negative_share)):
-        if k % 2:
-            j = usable[int(rng.integers(len(usable)))]
-            img = xs[j].copy()
-            x0, y0, x1, y1 = (int(v) for v in bs[j][0])
-            x0, y0 = max(0, x0), max(0, y0)
-            x1, y1 = min(w, max(x1, x0 + 1)), min(h, max(y1, y0 + 1))
-            img[y0:y1, x0:x1] = texture(rng, y1 - y0, x1 - x0)
-        else:
-            img = texture(rng, h, w)
-        images.append(camera_effects(rng, img))
-        targets_boxes.append(np.zeros((0, 4), np.float32))
+    say(0.0, float("nan"), "making randomised copies of the frames")
+    pool = _pool(rng, xs, bs, usable, config, w, h, cancelled)
+    if pool is None:
+        return None
+    images, targets_boxes = pool
     n = len(images)
-    feats, olds0, olds, t_boxes = [], [], [], []
-    net.eval()
-    with torch.no_grad():
-        for a in range(0, n, 16):
-            if cancelled is not None and cancelled():
-                return None
-            x = torch.from_numpy(np.ascontiguousarray(np.stack(images[a:a + 16])[..., ::-1].transpose(0, 3, 1, 2)))
-            x = x.float().div_(255.0)
-            f8 = net.stride8(x)
-            cat = torch.cat([f8, F.interpolate(net.stride16(f8), scale_factor=2.0, mode="nearest")], dim=1)
-            old0 = net.head[0](cat)
-            old = net.head[1](old0)
-            feats.append(cat)
-            olds0.append(old0)
-            olds.append(old)
-            t_boxes.append(net.box(old))
-            done = 0.25 * min(a + 16, n) / n
-            el = time.perf_counter() - t_start
-            say(done, el / max(done, 1e-6) * (1 - done), f"looking at {min(a + 16, n)}/{n} images")
-    feats, olds0, olds, t_boxes = torch.cat(feats), torch.cat(olds0), torch.cat(olds), torch.cat(t_boxes)
+    # the frozen network's features of every image, once, by OpenCV's DNN (several times faster than
+    # torch here; the exported model computes them the same way); half precision: the pool fits in memory
+    import cv2
+
+    from core.detect.learned.model import net_layers
+    from core.detect.learned.onnx_graph import build_desk_onnx
+
+    layers, arch = net_layers(net, names)
+    graph = build_desk_onnx(layers, arch, names, input_wh, features_only=True)
+    backbone = cv2.dnn.readNetFromONNX(np.frombuffer(graph.SerializeToString(), np.uint8))
+    cv_threads = cv2.getNumThreads()
+    cv2.setNumThreads(int(config.threads))
+    try:
+        feats = _features(backbone, images, cancelled, say, t_start)
+    finally:
+        cv2.setNumThreads(cv_threads)
+    if feats is None:
+        return None
+    del images
     tg = [make_targets(b, np.zeros(len(b), np.int64), np.zeros(len(b), bool), (h, w), 1) for b in targets_boxes]
     tall = {k: torch.from_numpy(np.stack([t[k] for t in tg])) for k in tg[0]}
-    # the new class's own channels: a 1×1 on the backbone's features, a 3×3 over the old head's
-    # first layer and them, and its score over the old head's output and them; the old head,
-    # classes and boxes are not touched
-    k_new, hw = int(config.new_channels), olds.shape[1]
-    conv_a = torch.nn.Conv2d(feats.shape[1], k_new, 1)
-    conv_b = torch.nn.Conv2d(hw + k_new, k_new, 3, padding=1)
-    score = torch.nn.Conv2d(hw + k_new, 1, 1)
-    # the box output learns the new object's boxes through the new channels only (no bias): where
-    # those are silent — everywhere but on the new object, which a penalty teaches them — every box
-    # is the old model's
-    box_delta = torch.nn.Conv2d(k_new, 4, 1, bias=False)
-    with torch.no_grad():
-        torch.nn.init.normal_(score.weight, std=0.01)
-        score.bias.fill_(-math.log((1 - 0.01) / 0.01))
-        box_delta.weight.zero_()
-    params = [*conv_a.parameters(), *conv_b.parameters(), *score.parameters(), *box_delta.parameters()]
-    opt = torch.optim.Adam(params, lr=config.learning_rate)
+    gh, gw = feats.shape[2:]
+    sizes = np.array([[b[0, 2] - b[0, 0], b[0, 3] - b[0, 1]] for b in targets_boxes if len(b)], np.float64)
+    crop_h = int(min(gh, max(config.crop_cells, np.ceil(sizes[:, 1].max() / STRIDE) + 4)))
+    crop_w = int(min(gw, max(config.crop_cells, np.ceil(sizes[:, 0].max() / STRIDE) + 4)))
+    centre = [None if len(b) == 0 else (int((b[0, 1] + b[0, 3]) / 2 // STRIDE), int((b[0, 0] + b[0, 2]) / 2 // STRIDE))
+              for b in targets_boxes]
+    branch = TaughtBranch(net.branch_input, int(config.branch_width), config.branch_kernels)
+    with torch.no_grad():  # its boxes start at the taught object's typical size
+        half = np.median(sizes, axis=0) / 2 / STRIDE
+        branch.box.bias.copy_(torch.tensor(np.log([half[0], half[1], half[0], half[1]]), dtype=torch.float32))
+    ema = TaughtBranch(net.branch_input, int(config.branch_width), config.branch_kernels)
+    ema.load_state_dict(branch.state_dict())
+    opt = torch.optim.Adam(branch.parameters(), lr=config.learning_rate)
     t0 = time.perf_counter()
-    prep = t0 - t_start
-    budget = max(config.max_seconds - prep, 1.0) if config.max_seconds else 0.0
+    # the wall-time budget counts from the start: what the preparation took, training does not get
+    budget = max(config.max_seconds - (t0 - t_start), 1.0) if config.max_seconds else 0.0
     step = 0
+    loss = torch.zeros(())
+
+    hard: list[tuple[int, int, int]] = []  # (image, row, column) of cells the branch wrongly liked
+    hard_p_raw: list[float] = []  # their scores when found
+    hard_p = np.zeros(0)
+
+    def around(cell: tuple[int, int]) -> tuple[int, int]:
+        r0 = int(np.clip(cell[0] - rng.integers(2, max(crop_h - 2, 3)), 0, gh - crop_h))
+        c0 = int(np.clip(cell[1] - rng.integers(2, max(crop_w - 2, 3)), 0, gw - crop_w))
+        return r0, c0
+
+    def pick() -> tuple[int, tuple[int, int]]:
+        """An image and a window's top-left cell: around the object (not always in the middle), around
+        a hard negative cell (once mined), or anywhere in a negative."""
+        if len(hard) and rng.random() < HARD_SHARE:
+            i, r, c = hard[int(rng.choice(len(hard), p=hard_p))]
+            return i, around((r, c))
+        i = int(rng.integers(n))
+        if centre[i] is None:
+            return i, (int(rng.integers(gh - crop_h + 1)), int(rng.integers(gw - crop_w + 1)))
+        return i, around(centre[i])
+
+    def mine() -> None:
+        """The cells away from the object where the branch's score is highest now (a few per image)."""
+        nonlocal hard, hard_p
+        found = []
+        # a random share of the images each time (the whole pool costs as much as many steps)
+        look = torch.from_numpy(rng.permutation(n)[:MINE_IMAGES])
+        with torch.no_grad():
+            for a in range(0, len(look), 32):
+                idx = look[a:a + 32]
+                logit, _ = ema(feats[idx].float())
+                p = torch.sigmoid(logit[:, 0])
+                p = torch.where((tall["heat"][idx, 0] < SILENT_HEAT) & ~tall["ignore"][idx], p, torch.zeros_like(p))
+                top = torch.topk(p.reshape(len(p), -1), HARD_PER_IMAGE, dim=1)
+                for k in range(len(p)):
+                    for v, flat in zip(top.values[k].tolist(), top.indices[k].tolist()):
+                        if v >= HARD_MIN_SCORE:
+                            found.append((v, int(idx[k]), flat // gw, flat % gw))
+        seen = set(look.tolist())
+        found += [(v, i, r, c) for v, (i, r, c) in zip(hard_p_raw, hard) if i not in seen]
+        hard_p_raw[:] = [v for v, *_ in found]
+        hard = [(i, r, c) for _, i, r, c in found]
+        hard_p = np.array([v for v, *_ in found], np.float64)
+        hard_p = hard_p / hard_p.sum() if len(hard_p) else hard_p
+
+    mined = 0
+
     for step in range(config.steps):
         if cancelled is not None and cancelled():
             return None
-        elapsed = time.perf_counter() - t0
         frac = step / config.steps
         if budget:
-            frac = max(frac, elapsed / budget)
+            frac = max(frac, (time.perf_counter() - t0) / budget)
         if frac >= 1.0:
             break
+        lr = config.learning_rate * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
+        if step < 50:
+            lr *= (step + 1) / 50
         for g in opt.param_groups:
-            g["lr"] = config.learning_rate * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
-        idx = torch.from_numpy(rng.choice(n, size=min(config.batch_size, n), replace=False))
-        old = olds[idx]
-        a_out = torch.relu(conv_a(feats[idx]))
-        b_out = torch.relu(conv_b(torch.cat([olds0[idx], a_out], dim=1)))
-        logits = score(torch.cat([old, b_out], dim=1))
-        tb = {k: v[idx] for k, v in tall.items()}
-        if config.learn_boxes:
-            delta = box_delta(b_out)
-            loss, parts = detection_loss(logits, t_boxes[idx] + delta, tb)
-            away = (tb["heat"][:, :1] < SILENT_HEAT).to(b_out.dtype)  # cells off the new object
-            loss = loss + BOX_KEEP_WEIGHT * (delta.abs() * away).mean() + SILENCE_WEIGHT * (b_out * away).mean()
-        else:  # the boxes are the old model's: the score alone learns
-            tb["box_weight"] = torch.zeros_like(tb["box_weight"])
-            loss, parts = detection_loss(logits, t_boxes[idx], tb)
+            g["lr"] = lr
+        if mined < len(MINE_AT) and frac >= MINE_AT[mined]:
+            mine()
+            mined += 1
+            say(0.25 + 0.75 * frac, float("nan"), f"{len(hard)} hard negative cells")
+        picks = [pick() for _ in range(min(config.batch_size, n))]
+        idx = [i for i, _ in picks]
+        corners = [c for _, c in picks]
+        x = torch.stack([feats[i, :, r:r + crop_h, c:c + crop_w] for i, (r, c) in zip(idx, corners)]).float()
+        tb = {k: torch.stack([v[i][..., r:r + crop_h, c:c + crop_w] for i, (r, c) in zip(idx, corners)])
+              for k, v in tall.items()}
+        # the window's boxes are in its own pixels: its cells sit where the grid puts them
+        shift = torch.tensor([[c * STRIDE, r * STRIDE, c * STRIDE, r * STRIDE] for r, c in corners],
+                             dtype=torch.float32)
+        tb["box"] = tb["box"] - shift[:, :, None, None]
+        logit, box_raw = branch(x)
+        loss, parts = detection_loss(logit, box_raw, tb)
         opt.zero_grad(set_to_none=True)
         loss.backward()
+        torch.nn.utils.clip_grad_norm_(branch.parameters(), 10.0)
         opt.step()
+        d = min(0.995, (1 + step) / (10 + step))
+        with torch.no_grad():
+            for pe, pn in zip(ema.parameters(), branch.parameters()):
+                pe.mul_(d).add_(pn.detach(), alpha=1 - d)
         done = (step + 1) / config.steps
-        elapsed = time.perf_counter() - t0
         if budget:
-            done = max(done, elapsed / budget)
-        done = min(done, 1.0)
-        total = 0.25 + 0.75 * done
+            done = max(done, (time.perf_counter() - t0) / budget)
+        total = 0.25 + 0.75 * min(done, 1.0)
         say(total, (time.perf_counter() - t_start) / total * (1 - total),
-            f"step {step + 1}/{config.steps}: loss {float(loss.detach()):.3f}")
-    index = len(names)
-    net, _ = widen_for_new_class(net, k_new)
-    names = names + [name]
-    with torch.no_grad():  # the trained channels into the widened network
-        h0, h1 = net.head[0], net.head[1]
-        h0[0].weight[hw:] = conv_a.weight
-        h0[1].bias[hw:] = conv_a.bias
-        h1[0].weight[hw:] = conv_b.weight
-        h1[1].bias[hw:] = conv_b.bias
-        net.classes.weight[index] = score.weight[0]
-        net.classes.bias[index] = score.bias[0]
-        if config.learn_boxes:
-            net.box.weight[:, hw:] = box_delta.weight
+            f"step {step + 1}/{config.steps}: loss {float(loss.detach()):.3f} (focal {parts['focal']:.3f}, "
+            f"box {parts['box']:.3f})")
+    steps_done = step + 1 if step + 1 == config.steps else step
     if cancelled is not None and cancelled():
         return None
-    net.eval()
+    net.add_taught(ema.eval())
+    names = names + [name]
     for p in net.parameters():
         p.requires_grad_(False)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "desk_objects.onnx"
     previous = out_dir / "desk_objects.previous.onnx"
-    meta_out = {"deskarm_taught": {"name": name, "frames": len(frames), "frames_used": len(usable),
-                                   "marks": len(marks), "steps": step + 1, "base": str(base_model)},
+    taught_before = json.loads(meta.get("deskarm_taught_all", "[]")) if meta.get("deskarm_taught_all") else []
+    this = {"name": name, "frames": len(frames), "frames_used": len(usable), "marks": len(marks),
+            "steps": steps_done, "images": n, "seconds": round(time.perf_counter() - t_start, 1),
+            "base": str(base_model)}
+    meta_out = {"deskarm_taught": this, "deskarm_taught_all": taught_before + [this],
                 "description": f"deskarm desk-object detector with taught classes ({', '.join(names)})"}
     for key in ("deskarm_training", "deskarm_eval", "deskarm_eval_hand"):
         if key in meta:
@@ -429,5 +622,5 @@ def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, bas
     own.write_bytes(tmp.read_bytes())
     tmp.replace(path)
     say(1.0, 0.0, f"taught {name!r}: {path}")
-    return TeachResult(name=name, path=path, names=names, seconds=time.perf_counter() - t_start, steps=step + 1,
-                       frames_used=len(usable), copies=[own])
+    return TeachResult(name=name, path=path, names=names, seconds=time.perf_counter() - t_start, steps=steps_done,
+                       frames_used=len(usable), copies=[own], images=n)
