@@ -22,6 +22,8 @@ import sys
 import time
 from pathlib import Path
 
+from core.detect.learned.teach import TeachConfig
+
 TEACH = "teach"
 COMMANDS = (TEACH,)
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp")
@@ -38,7 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--images", required=True, metavar="DIR", help="folder of ≤ 60 frames of the object")
     p.add_argument("--boxes", default=None, metavar="FILE",
                    help="≤ 10 marks: 'FRAME x0 y0 x1 y1' or 'FRAME x y' per line (default DIR/boxes.txt)")
-    p.add_argument("--steps", type=int, default=300, metavar="N", help="fine-tuning batches (default 300)")
+    p.add_argument("--steps", type=int, default=TeachConfig.steps, metavar="N",
+                   help=f"training steps at most (default {TeachConfig.steps}; --minutes stops it sooner)")
     p.add_argument("--minutes", type=float, default=4.0, metavar="M", help="time limit (default 4)")
     p.add_argument("--base", default=None, metavar="MODEL", help="model to extend (default: yours, else the shipped)")
     p.add_argument("--out", default=None, metavar="DIR", help="where to write (default: <config>/models)")
@@ -71,7 +74,7 @@ def load_frames(folder: Path):
     return files, frames
 
 
-def teach_folder(name: str, images: Path, boxes_file, *, steps: int = 300, minutes: float = 4.0, base=None,
+def teach_folder(name: str, images: Path, boxes_file, *, steps: int = TeachConfig.steps, minutes: float = 4.0, base=None,
                  out=None, as_json: bool = False, prog: str = f"deskarm {TEACH}") -> int:
     try:
         import torch  # noqa: F401
@@ -81,7 +84,7 @@ def teach_folder(name: str, images: Path, boxes_file, *, steps: int = 300, minut
         return 2
     from dataclasses import replace
 
-    from core.detect.learned.teach import MAX_FRAMES, TeachConfig, read_marks, teach, valid_name
+    from core.detect.learned.teach import MAX_FRAMES, read_marks, teach, valid_name
 
     images = Path(images)
     boxes_file = Path(boxes_file) if boxes_file else images / "boxes.txt"
