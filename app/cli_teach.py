@@ -130,10 +130,12 @@ def teach_folder(name: str, images: Path, boxes_file, *, steps: int = TeachConfi
         line = progress_line(fraction, left)
         print(("\r" + line) if tty else line, end="" if tty else "\n", file=sys.stderr, flush=True)
 
+    from core.sim.dataset import desk_negatives
+
     try:
         result = teach(name, frames, fixed, base_model=base, out_dir=Path(out) if out else None,
                        config=TeachConfig(steps=steps, max_seconds=60.0 * minutes), progress=progress,
-                       cancelled=lambda: stop["now"])
+                       cancelled=lambda: stop["now"], scene_negatives=desk_negatives)
     except ValueError as exc:
         print(f"\n{prog}: {exc}", file=sys.stderr)
         return 2

@@ -100,7 +100,7 @@ def teach_on_desk(n_test: int = 200, config=None, out_dir=None, progress=None) -
     from core.detect.learned.teach import Mark, TeachConfig, carry_boxes, teach
     from core.detect.onnx_yolo import OnnxYoloDetector
     from core.detect.learned.shipped import shipped_model_path
-    from core.sim.dataset import CLASSES, score_detector
+    from core.sim.dataset import CLASSES, desk_negatives, score_detector
 
     frames, truth = lesson()
     marked = [i for i in range(0, LESSON_FRAMES, LESSON_FRAMES // LESSON_MARKS) if truth[i] is not None][:LESSON_MARKS]
@@ -117,7 +117,8 @@ def teach_on_desk(n_test: int = 200, config=None, out_dir=None, progress=None) -
         t0 = time.perf_counter()
         load = os.getloadavg()[0]
         result = teach(NAME, frames, marks, base_model=shipped_model_path(), out_dir=out,
-                       config=config or TeachConfig(), progress=progress, boxes=carried)
+                       config=config or TeachConfig(), progress=progress, boxes=carried,
+                       scene_negatives=desk_negatives)
         load = max(load, os.getloadavg()[0])
         seconds = time.perf_counter() - t0 + track_s
         det = OnnxYoloDetector(result.path, score_threshold=0.05)
@@ -159,13 +160,14 @@ def teach_tray(real_dir, teach_pairs=(10, 11, 12, 13, 14), test_pairs=tuple(rang
     from core.detect.learned.shipped import shipped_model_path
     from core.detect.learned.teach import Mark, TeachConfig, teach
     from core.detect.onnx_yolo import OnnxYoloDetector
+    from core.sim.dataset import desk_negatives
 
     train = [cv2.imread(str(p)) for p in real_photo_split(Path(real_dir), teach_pairs)]
     test = [cv2.imread(str(p)) for p in real_photo_split(Path(real_dir), test_pairs)]
     marks = [Mark(frame=i, box=tray_box(img)) for i, img in enumerate(train)]
     with tempfile.TemporaryDirectory(prefix="deskarm-teach-tray-") as tmp:
         result = teach("tray", train, marks, base_model=shipped_model_path(), out_dir=Path(out_dir or tmp),
-                       config=config or TeachConfig())
+                       config=config or TeachConfig(), scene_negatives=desk_negatives)
         det = OnnxYoloDetector(result.path, score_threshold=0.05)
         found = [[ScoredBox(d.label, (d.box[0], d.box[1], d.box[0] + d.box[2], d.box[1] + d.box[3]), d.score)
                   for d in det.detect(img) if d.label == "tray"] for img in test]

@@ -66,10 +66,11 @@ class TeachRunner(QtCore.QObject):
     def _run(self, name: str, frames: list, marks: list) -> None:
         try:
             from core.detect.learned.teach import teach
+            from core.sim.dataset import desk_negatives
 
             result = teach(name, frames, marks, base_model=self.base_model, out_dir=self.out_dir, config=self.config,
                            progress=lambda f, left, text: self.sigProgress.emit(float(f), float(left), str(text)),
-                           cancelled=self._cancel.is_set)
+                           cancelled=self._cancel.is_set, scene_negatives=desk_negatives)
         except ImportError:
             self.sigFinished.emit(False, "teaching needs torch: pip install -e '.[train]'", "")
             return

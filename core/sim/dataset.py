@@ -633,3 +633,25 @@ def score_detector(detector, n_images: int, first_seed: int = TEST_SEED_BASE, cl
     scores = evaluate_detections(truths, found, classes, iou_threshold, score_threshold)
     n = max(len(truths), 1)
     return scores, {"render_ms_per_image": 1000 * render_s / n, "detect_ms_per_image": 1000 * detect_s / n}
+
+
+def desk_negatives(count: int, input_wh: tuple[int, int], first_seed: int = 0) -> list[np.ndarray]:
+    """``count`` renders of the simulated desk holding only what the model already knows (its
+    classes' objects, lift panels, door handles, the arm; the cards and hands taken out),
+    letterboxed to ``input_wh``: negatives that teach a new class it is none of the old ones
+    (``core.detect.learned.teach.teach(scene_negatives=desk_negatives)``)."""
+    from dataclasses import replace
+
+    from core.detect.onnx_yolo import letterbox
+
+    desks, out = {}, []
+    for seed in training_seeds(count, first_seed):
+        state, settings, arm, index = random_scene(seed)
+        if index not in desks:
+            desks[index] = desk_for(index)
+        desk = desks[index]
+        desk.set_scenario(_FixedScene(desk.marker_ids, replace(state, cards=(), hands=())))
+        desk.set_camera_settings(settings)
+        left, right, _ = desk.render(float(seed), arm)
+        out.append(letterbox(left if seed % 2 == 0 else right, input_wh)[0])
+    return out

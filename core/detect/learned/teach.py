@@ -31,7 +31,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 __all__ = ["TeachConfig", "TeachResult", "Mark", "carry_boxes", "box_from_tap", "teach", "user_model_dir",
-           "user_model_path", "valid_name", "read_marks", "desk_negatives", "MAX_FRAMES", "MAX_MARKS"]
+           "user_model_path", "valid_name", "read_marks", "MAX_FRAMES", "MAX_MARKS"]
 
 MAX_FRAMES = 60
 MAX_MARKS = 10
@@ -295,35 +295,14 @@ def _occlude(rng: np.random.Generator, img: np.ndarray, box: np.ndarray, source:
     return out
 
 
-def desk_negatives(count: int, input_wh: tuple[int, int], first_seed: int = 0) -> list[np.ndarray]:
-    """``count`` renders of the simulated desk holding only what the model already knows (its
-    classes' objects, lift panels, door handles, the arm; the cards and hands taken out),
-    letterboxed to ``input_wh``: negatives that teach a new class it is none of the old ones."""
-    from dataclasses import replace
-
-    from core.detect.onnx_yolo import letterbox
-    from core.sim.dataset import _FixedScene, desk_for, random_scene, training_seeds
-
-    desks, out = {}, []
-    for seed in training_seeds(count, first_seed):
-        state, settings, arm, index = random_scene(seed)
-        if index not in desks:
-            desks[index] = desk_for(index)
-        desk = desks[index]
-        desk.set_scenario(_FixedScene(desk.marker_ids, replace(state, cards=(), hands=())))
-        desk.set_camera_settings(settings)
-        left, right, _ = desk.render(float(seed), arm)
-        out.append(letterbox(left if seed % 2 == 0 else right, input_wh)[0])
-    return out
-
-
-def _pool(rng, xs, bs, usable, config: TeachConfig, w: int, h: int, cancelled):
+def _pool(rng, xs, bs, usable, config: TeachConfig, w: int, h: int, cancelled, scene_negatives=None):
     """The images the new branch learns from: (images, boxes (K, 4) each), or None when cancelled.
 
     Positives: every marked or tracked frame as it is, then copies — mirrored half the time, zoomed
     and shifted, domain-randomised (``randomise``: white balance, exposure, blur, noise, JPEG, lens,
     other backgrounds), some with a second one pasted in or a side covered. Negatives: the frames
-    with the object painted out (zoomed too), textures, renders of the desk (``desk_negatives``)."""
+    with the object painted out (zoomed too), textures, and ``scene_negatives``' images (the app
+    passes ``core.sim.dataset.desk_negatives``: renders of the desk with only the known classes)."""
     from core.detect.learned.randomise import camera_effects, randomise, texture
 
     images, boxes = [], []
@@ -377,8 +356,8 @@ def _pool(rng, xs, bs, usable, config: TeachConfig, w: int, h: int, cancelled):
                 img = img[:, ::-1].copy()
         images.append(camera_effects(rng, img))
         boxes.append(np.zeros((0, 4), np.float32))
-    if config.desk_negatives:
-        for img in desk_negatives(config.desk_negatives, (w, h), DESK_NEGATIVES_FIRST_SEED + 1000 * config.seed):
+    if config.desk_negatives and scene_negatives is not None:
+        for img in scene_negatives(config.desk_negatives, (w, h), DESK_NEGATIVES_FIRST_SEED + 1000 * config.seed):
             if rng.random() < 0.5:
                 img = img[:, ::-1].copy()
             images.append(camera_effects(rng, img, 0.5))
@@ -412,10 +391,13 @@ def _features(backbone, images, cancelled, say, t_start):
 def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, base_model=None,
           out_dir: Optional[Path] = None, config: TeachConfig = TeachConfig(),
           progress: Optional[Callable[[float, float, str], None]] = None,
-          cancelled: Optional[Callable[[], bool]] = None, boxes: Optional[Sequence] = None) -> Optional[TeachResult]:
+          cancelled: Optional[Callable[[], bool]] = None, boxes: Optional[Sequence] = None,
+          scene_negatives: Optional[Callable[[int, tuple[int, int], int], list]] = None) -> Optional[TeachResult]:
     """Teach class ``name`` from ``frames`` (BGR, ≤ MAX_FRAMES) and ``marks`` (≤ MAX_MARKS), or
     from per-frame ``boxes`` already known. ``base_model``: the .onnx to extend (default the user's
-    model, else the shipped one). Returns None when cancelled (nothing written).
+    model, else the shipped one). ``scene_negatives(count, input_wh, first_seed)``: images of
+    scenes without the object (the app passes ``core.sim.dataset.desk_negatives``; core.detect
+    never imports the simulated desk). Returns None when cancelled (nothing written).
 
     The new class gets a branch of its own (``core.detect.learned.model.TaughtBranch``: two 3×3
     layers on the frozen backbone's and head's features, its own score and its own box), exported
@@ -460,7 +442,7 @@ def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, bas
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
     say(0.0, float("nan"), "making randomised copies of the frames")
-    pool = _pool(rng, xs, bs, usable, config, w, h, cancelled)
+    pool = _pool(rng, xs, bs, usable, config, w, h, cancelled, scene_negatives)
     if pool is None:
         return None
     images, targets_boxes = pool
