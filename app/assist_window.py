@@ -521,7 +521,7 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     v1/v2 serial port or phidget://: a real one — the caller refuses a real arm on the simulated desk
     unless asked for on purpose). ``size``: the largest screen shown full screen (a bigger one gets
     a maximised window)."""
-    from app.startup import GuiThreadGarbage, make_app
+    from app.startup import GuiThreadGarbage, make_app, run_until_quit
 
     app = make_app()
     window = build_assist_window(seed, vibration, hand_camera, switches, depth, bridge_url, passing_hand, detector)
@@ -530,7 +530,7 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     app.aboutToQuit.connect(garbage.stop)
     show_filling_screen(window, size)
     window.start()
-    return app.exec()
+    return run_until_quit(app, window)
 
 
 def take_assist_screenshot(path: str, size: tuple[int, int] = (800, 480), after_s: float = 2.0, seed: int = 0,

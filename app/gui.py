@@ -36,7 +36,7 @@ from app.features.stereo import StereoFeature
 from app.features.target import TargetFeature
 from app.features.teleop import TeleopFeature
 from app.preferences import WindowPreferences
-from app.startup import GuiThreadGarbage, finish_splash, make_app
+from app.startup import GuiThreadGarbage, finish_splash, make_app, run_until_quit
 from app.window_draw import (  # noqa: F401 (the change tests import these from here)
     RedrawPacer,
     frame_rate,
@@ -689,7 +689,7 @@ def run_window(options: SessionOptions, size: tuple[int, int],
     if record is not None:  # --record [PATH]: recording from the start (● REC stops it)
         window.record_path = record or None
         window.record_button.setChecked(True)
-    return app.exec()
+    return run_until_quit(app, window)
 
 
 def take_screenshot(options: SessionOptions, path: str, after_s: float, size: tuple[int, int]) -> int:
@@ -716,7 +716,7 @@ def take_screenshot(options: SessionOptions, path: str, after_s: float, size: tu
         app.quit()
 
     QtCore.QTimer.singleShot(int(after_s * 1000), grab)
-    app.exec()
+    run_until_quit(app, window)
     if not (saved and saved[0]):
         import sys
 

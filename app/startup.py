@@ -106,3 +106,17 @@ def finish_splash(splash: Optional[QtWidgets.QWidget]) -> None:
     if splash is not None:
         splash.close()
         splash.deleteLater()
+
+
+def run_until_quit(app: QtWidgets.QApplication, window: QtWidgets.QWidget) -> int:
+    """``app.exec()``, then ``window``'s Qt objects deleted at once, while Python still holds their
+    wrappers. Left to the interpreter's exit, the cycle collector (paused during start-up by
+    app.cli.start_up, back on at its end) could free a child's Python wrapper before Qt destroys the
+    child, and Qt would then call that child's Python overrides (DragScroll's and StopGuard's event
+    filters) through an empty wrapper: a traceback per event on every exit."""
+    import shiboken6
+
+    code = app.exec()
+    if shiboken6.isValid(window):
+        shiboken6.delete(window)
+    return code
