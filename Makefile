@@ -8,12 +8,13 @@ STAMP  := $(VENV)/.installed
 
 setup: $(STAMP)
 
-# Re-install when pyproject.toml changes; uv is ~3x faster than pip when it is available.
+# Re-install when pyproject.toml changes; uv is ~3x faster than pip when it is available. Bytecode is
+# compiled at install (as pip does; uv only when asked): a Pi's first start would compile it otherwise.
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	@$(PY) -m pip install -q --upgrade pip uv >/dev/null 2>&1 || true
 	@if $(VENV)/bin/uv --version >/dev/null 2>&1; then \
-		VIRTUAL_ENV=$(VENV) $(VENV)/bin/uv pip install -q -e '.[test]'; \
+		VIRTUAL_ENV=$(VENV) $(VENV)/bin/uv pip install -q --compile-bytecode -e '.[test]'; \
 	else \
 		$(PY) -m pip install -q -e '.[test]'; \
 	fi

@@ -2,8 +2,7 @@
 
 The ``widgets`` package itself does not import pyqtgraph: the assistive view, STOP and the
 panels need none of it, and its import is a good part of a start-up on a Pi-class core. Every
-module of ``widgets`` that makes pyqtgraph items imports it from here (the camera view through
-``widgets.camera_overlays``), so the options below are set before the first item is made.
+module of ``widgets`` that makes pyqtgraph items imports it from here, so the options below are set before the first item is made.
 """
 import pyqtgraph as pg
 

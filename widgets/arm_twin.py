@@ -22,7 +22,7 @@ import math
 from typing import Any, Mapping, Optional, Sequence
 
 import numpy as np
-import pyqtgraph as pg
+from widgets._pyqtgraph import pg
 from PySide6 import QtCore, QtWidgets
 
 # also re-exported: the window, the 3D twin and the tests import these from widgets.arm_twin

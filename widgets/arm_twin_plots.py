@@ -10,7 +10,7 @@ import math
 from typing import Optional, Sequence
 
 import numpy as np
-import pyqtgraph as pg
+from widgets._pyqtgraph import pg
 from PySide6 import QtCore, QtGui
 
 from widgets.arm_twin_geometry import (

@@ -13,7 +13,7 @@ from typing import Optional, Sequence
 
 import cv2
 import numpy as np
-import pyqtgraph as pg
+from widgets._pyqtgraph import pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from widgets._style import TOUCH_PX, touch_button
