@@ -3,8 +3,9 @@
 The lesson: a printed marker card — not one of the shipped classes — slid and turned across the
 app's default desk among other objects (the scene's lift panel too, and the arm standing to the
 side: ``parked_arm``), 60 frames of the left camera (a user moving their object in front of the
-rig). The "user" marks it in 10 frames (every 6th: its true box); the tracker carries the box
-through the frames between (``core.detect.learned.teach.carry_boxes``), and
+rig). The "user" taps it in 10 frames (every 6th: the centre of its visible box); ``box_from_tap``
+makes each tap a box (what moved under the tap against the lesson's still background), the
+tracker carries the box through the frames between (``core.detect.learned.teach.carry_boxes``), and
 ``teach`` extends the shipped model with a branch of the card's own on 1 CPU thread (TeachConfig's
 defaults: ≤ 4000 steps, ≤ 240 s of wall time from the start — a loaded machine gets fewer steps;
 the row says how many, and the load average). The taught model is then scored on 200
@@ -12,10 +13,12 @@ renders it never saw (held-out scenes, seeds from ``TEST_SEED_BASE``, the rig's 
 desks): AP@0.5 of the new class "card" (every card in those scenes, whatever its marker), and
 mAP@0.5 of the six shipped classes beside the shipped model's on the same renders.
 
-Row: "teach: a new class from 60 frames, 10 marks" — the training seconds (one sample), extra:
-the AP, the old classes' mAP, frames the tracker labelled, steps done, the load average. Needs
+Row: "teach: a new class from 60 frames, 10 taps" — the seconds (taps to boxes, tracking and
+training; one sample), extra: the AP, the old classes' mAP, frames the tracker labelled, the taps'
+boxes' IoU with the truth, steps done, the load average. Needs
 torch (the train extra): without it the row is skipped (ImportError).
-``python -m bench.bench_teach [--quick]``; ``python -m bench.bench_teach --tray`` teaches "tray"
+``python -m bench.bench_teach [--quick] [--boxes] [--hand]`` (``--boxes``: the marks are the true
+boxes instead of taps; ``--hand``: a hand pushes the card); ``python -m bench.bench_teach --tray`` teaches "tray"
 from real webcam photos instead (``teach_tray``).
 """
 from __future__ import annotations
@@ -34,6 +37,8 @@ LESSON_FRAMES = 60
 LESSON_MARKS = 10
 NAME = "card"
 TRUTH_KIND = "marker"  # what the simulator calls a card
+HAND_BEHIND_M = 0.13  # a pushing hand's knuckles this far from the card's centre (cameras' side, fingers to it)
+HAND_LIFT_M = 0.01  # and this high above the desk
 
 
 def parked_arm(yaw: float = math.pi / 2 - 1.3, up: float = 1.2, down: float = -0.6) -> np.ndarray:
@@ -46,10 +51,12 @@ def parked_arm(yaw: float = math.pi / 2 - 1.3, up: float = 1.2, down: float = -0
     return np.array([[0.0, 0.0, 0.0], shoulder, elbow, tool])
 
 
-def lesson(n_frames: int = LESSON_FRAMES, seed: int = 7) -> tuple[list[np.ndarray], list[Optional[tuple]]]:
-    """(frames, true boxes x0 y0 x1 y1 or None) of a card moved across the default desk."""
+def lesson(n_frames: int = LESSON_FRAMES, seed: int = 7,
+           hand: bool = False) -> tuple[list[np.ndarray], list[Optional[tuple]]]:
+    """(frames, true boxes x0 y0 x1 y1 or None) of a card moved across the default desk; ``hand``:
+    a hand pushing it along (touching its near edge, forearm towards the user: it moves with it)."""
     from core.sim.dataset import _FixedScene, desk_for, random_scene
-    from core.sim.scenarios import Card
+    from core.sim.scenarios import Card, Hand
 
     state, _, _, _ = random_scene(seed)
     desk = desk_for(0)
@@ -71,7 +78,8 @@ def lesson(n_frames: int = LESSON_FRAMES, seed: int = 7) -> tuple[list[np.ndarra
     for k in range(n_frames):
         s = k / max(n_frames - 1, 1)
         card = Card(23, *path(s), yaw=2.5 * s - 1.0)
-        st = type(state)(cards=(card,), hands=(), things=things, panels=panels, handles=state.handles)
+        hands = (Hand(card.x, card.y + HAND_BEHIND_M, HAND_LIFT_M, yaw=math.pi),) if hand else ()
+        st = type(state)(cards=(card,), hands=hands, things=things, panels=panels, handles=state.handles)
         desk.set_scenario(_FixedScene(desk.marker_ids, st))
         t = float(k) / 30.0
         left, _, _ = desk.render(t, arm)
@@ -95,23 +103,35 @@ class _Renamed:
         return [replace(d, label=self.kind) if d.label == self.name_ else d for d in self.inner.detect(image)]
 
 
-def teach_on_desk(n_test: int = 200, config=None, out_dir=None, progress=None) -> dict:
-    """Teach "card" from the lesson and score it; a dict of the figures."""
+def tap_at(box) -> tuple[float, float]:
+    """Where a user taps an object: the centre of its visible box."""
+    return (0.5 * (box[0] + box[2]), 0.5 * (box[1] + box[3]))
+
+
+def teach_on_desk(n_test: int = 200, config=None, out_dir=None, progress=None, taps: bool = True,
+                  hand: bool = False) -> dict:
+    """Teach "card" from the lesson and score it; a dict of the figures. ``taps``: the user taps
+    the card (the centre of its visible box) in the marked frames, else draws its true box;
+    ``hand``: the lesson's card is pushed by a hand."""
     from core.detect.learned.teach import Mark, TeachConfig, carry_boxes, teach
     from core.detect.onnx_yolo import OnnxYoloDetector
     from core.detect.learned.shipped import shipped_model_path
     from core.sim.dataset import CLASSES, desk_negatives, score_detector
 
-    frames, truth = lesson()
+    from core.detect.learned.evaluation import box_iou
+
+    frames, truth = lesson(hand=hand)
     marked = [i for i in range(0, LESSON_FRAMES, LESSON_FRAMES // LESSON_MARKS) if truth[i] is not None][:LESSON_MARKS]
-    marks = [Mark(frame=i, box=truth[i]) for i in marked]
+    marks = [Mark(frame=i, tap=tap_at(truth[i])) if taps else Mark(frame=i, box=truth[i]) for i in marked]
     t0 = time.perf_counter()
     carried = carry_boxes(frames, marks)
     track_s = time.perf_counter() - t0
-    from core.detect.learned.evaluation import box_iou
 
-    ious = [float(box_iou(np.array([c]), np.array([t]))[0, 0]) for c, t in zip(carried, truth)
-            if c is not None and t is not None]
+    def iou(a, b) -> float:
+        return float(box_iou(np.array([a], float), np.array([b], float))[0, 0])
+
+    ious = [iou(c, t) for c, t in zip(carried, truth) if c is not None and t is not None]
+    mark_ious = [round(iou(carried[i], truth[i]), 2) for i in marked]
     with tempfile.TemporaryDirectory(prefix="deskarm-teach-") as tmp:
         out = Path(out_dir or tmp)
         t0 = time.perf_counter()
@@ -129,6 +149,8 @@ def teach_on_desk(n_test: int = 200, config=None, out_dir=None, progress=None) -
     return {"seconds": seconds, "ap": scores.classes[TRUTH_KIND].ap, "n_truth": scores.classes[TRUTH_KIND].n_truth,
             "old_map_taught": new_old, "old_map_shipped": old.mean_ap, "frames": LESSON_FRAMES, "marks": len(marks),
             "carried": sum(c is not None for c in carried), "carried_iou_median": float(np.median(ious)),
+            "marked_by": "taps" if taps else "boxes", "hand": hand, "mark_ious": mark_ious,
+            "mark_seconds": round(track_s, 2),
             "steps": result.steps, "images": result.images, "load_average": round(load, 1),
             "max_seconds": (config or TeachConfig()).max_seconds}
 
@@ -184,11 +206,12 @@ def rows(quick: bool = False) -> list[dict]:
     import torch  # noqa: F401  (ImportError: the row is skipped)
 
     r = teach_on_desk(n_test=40 if quick else 200)
-    return [{"name": f"teach: a new class from {r['frames']} frames, {r['marks']} marks", "unit": "s",
+    return [{"name": f"teach: a new class from {r['frames']} frames, {r['marks']} taps", "unit": "s",
              "samples": [r["seconds"]], "baseline": None,
              "extra": f"AP@0.5 {r['ap']:.3f} on {r['n_truth']} cards in unseen renders; shipped classes mAP "
                       f"{r['old_map_taught']:.3f} (shipped model {r['old_map_shipped']:.3f}); tracker labelled "
-                      f"{r['carried']}/{r['frames']} frames (median IoU {r['carried_iou_median']:.2f}); "
+                      f"{r['carried']}/{r['frames']} frames (median IoU {r['carried_iou_median']:.2f}; the taps' boxes "
+                      f"IoU {min(r['mark_ious']):.2f}–{max(r['mark_ious']):.2f}); "
                       f"{r['steps']} steps in the {r['max_seconds']:.0f} s budget (load average "
                       f"{r['load_average']})"}]
 
@@ -200,7 +223,7 @@ def main(argv: list[str]) -> int:
         print(json.dumps(teach_tray(Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
                                     / "stereo_7x5_320x240")))
         return 0
-    r = teach_on_desk(n_test=40 if "--quick" in argv else 200,
+    r = teach_on_desk(n_test=40 if "--quick" in argv else 200, taps="--boxes" not in argv, hand="--hand" in argv,
                       progress=lambda f, left, text: print(f"{100 * f:.0f} % ({left:.0f} s left) {text}",
                                                            file=sys.stderr) if int(1000 * f) % 100 == 0 else None)
     print(json.dumps(r))

@@ -30,8 +30,8 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-__all__ = ["TeachConfig", "TeachResult", "Mark", "carry_boxes", "box_from_tap", "teach", "user_model_dir",
-           "user_model_path", "valid_name", "read_marks", "MAX_FRAMES", "MAX_MARKS"]
+__all__ = ["TeachConfig", "TeachResult", "Mark", "carry_boxes", "box_from_tap", "lesson_background", "teach",
+           "user_model_dir", "user_model_path", "valid_name", "read_marks", "MAX_FRAMES", "MAX_MARKS"]
 
 MAX_FRAMES = 60
 MAX_MARKS = 10
@@ -99,37 +99,190 @@ def read_marks(path) -> list[Mark]:
     return marks
 
 
-def box_from_tap(image: np.ndarray, tap: tuple[float, float]) -> tuple[float, float, float, float]:
-    """A box around the object under a tap: the region of similar colour flooded from the tap
-    (GrabCut-refined when it is large), as x0, y0, x1, y1."""
+MOTION_LEVEL = 25  # a pixel this far (0–255, any channel) from the lesson's background moved
+GRABCUT_SQUARES = (0.12, 0.18, 0.26, 0.36, 0.5, 0.7)  # half-sides (of the image's short side) tried round a still tap
+STILL_AGREE = 0.8  # a square's box is the object's when the next square's box overlaps it this much (IoU)
+HAND_CUT_KEPT = 0.6  # the moving region is the object unless the colour cut keeps less of it than this (IoU)
+
+
+def lesson_background(frames: Sequence[np.ndarray], most: int = 15) -> Optional[np.ndarray]:
+    """What stays still in the lesson: the per-pixel median of (up to ``most`` of) its frames, or
+    None for fewer than 3 frames or frames of different sizes."""
+    if len(frames) < 3 or len({f.shape for f in frames}) != 1:
+        return None
+    step = max(1, math.ceil(len(frames) / most))
+    return np.median(np.stack(list(frames)[::step]), axis=0).astype(np.uint8)
+
+
+def _component_at(mask: np.ndarray, x: int, y: int, reach: float):
+    """The connected component of ``mask`` at (x, y) — or the nearest one within ``reach`` px —
+    as (its mask, its stats row x y w h area), or None."""
+    import cv2
+
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    if n < 2:
+        return None
+    k = lab[y, x]
+    if k == 0:
+        ys, xs = np.nonzero(lab)
+        d = np.hypot(xs - x, ys - y)
+        j = int(np.argmin(d))
+        if d[j] > reach:
+            return None
+        k = lab[ys[j], xs[j]]
+    return lab == k, stats[k]
+
+
+def _box(st, dx: int = 0, dy: int = 0) -> tuple[float, float, float, float]:
+    x, y, w, h = (int(v) for v in st[:4])
+    return (float(x + dx), float(y + dy), float(x + w + dx), float(y + h + dy))
+
+
+def _iou(a, b) -> float:
+    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - ix * iy
+    return ix * iy / union if union > 0 else 0.0
+
+
+def _moving_box(image: np.ndarray, x: int, y: int, background: np.ndarray):
+    """The box of what moved under the tap (the image against the lesson's still background), cut
+    by colour when a hand (or anything else moving with it) joins it; None when nothing moved there."""
     import cv2
 
     h, w = image.shape[:2]
-    x, y = int(np.clip(tap[0], 0, w - 1)), int(np.clip(tap[1], 0, h - 1))
+    moving = (cv2.absdiff(image, background).max(axis=2) > MOTION_LEVEL).astype(np.uint8)
+    moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    moving = cv2.morphologyEx(moving, cv2.MORPH_CLOSE, np.ones((7, 7), np.uint8))
+    found = _component_at(moving, x, y, 0.03 * min(w, h))
+    if found is None or not 16 <= found[1][4] <= 0.5 * w * h:
+        return None
+    region, st = found
+    box = _box(st)
+    # the colour cut: the colours round the tap are the object's (sure), the rest of the moving
+    # region may be (GrabCut decides), what stood still is not
+    bx, by, bw, bh = (int(v) for v in st[:4])
+    m = int(0.1 * max(bw, bh)) + 4
+    x0, y0, x1, y1 = max(0, bx - m), max(0, by - m), min(w, bx + bw + m), min(h, by + bh + m)
+    inside = region[y0:y1, x0:x1]
+    cx, cy = x - x0, y - y0
+    if not inside[cy, cx]:
+        return box
+    r = max(2, int(0.6 * cv2.distanceTransform(inside.astype(np.uint8), cv2.DIST_L2, 5)[cy, cx]))
+    mask = np.where(inside, cv2.GC_PR_BGD, cv2.GC_BGD).astype(np.uint8)
+    cv2.circle(mask, (cx, cy), r, int(cv2.GC_FGD), -1)
+    try:
+        cv2.grabCut(image[y0:y1, x0:x1], mask, None, np.zeros((1, 65)), np.zeros((1, 65)), 3, cv2.GC_INIT_WITH_MASK)
+    except cv2.error:
+        return box
+    kept = ((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)) & inside
+    found = _component_at(cv2.morphologyEx(kept.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)),
+                          cx, cy, 3)
+    if found is None:
+        return box
+    core, st2 = found
+    # the cut hugs the object's inside: give back the moving pixels near it (a thin rim, a pale border)
+    d = int(max(3, 0.12 * max(st2[2], st2[3])))
+    grown = cv2.dilate(core.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * d + 1, 2 * d + 1)))
+    cut = _box(_component_at((grown > 0) & inside, cx, cy, 3)[1], x0, y0)
+    return box if _iou(cut, box) >= HAND_CUT_KEPT else cut
+
+
+def _still_box(image: np.ndarray, x: int, y: int):
+    """GrabCut in squares growing round the tap: the foreground's component under the tap in the
+    first square that holds it whole and the next square agrees with (else the largest square's);
+    None when nothing stands out."""
+    import cv2
+
+    h, w = image.shape[:2]
+    found_boxes = []  # (box, held whole)
+    for half in GRABCUT_SQUARES:
+        r = int(half * min(w, h))
+        x0, y0, x1, y1 = max(1, x - r), max(1, y - r), min(w - 1, x + r), min(h - 1, y + r)
+        if x1 - x0 < 8 or y1 - y0 < 8:
+            continue
+        m = max(8, r // 2)  # GrabCut sees the square and this much round it (the background it learns)
+        cx0, cy0, cx1, cy1 = max(0, x0 - m), max(0, y0 - m), min(w, x1 + m), min(h, y1 + m)
+        mask = np.zeros((cy1 - cy0, cx1 - cx0), np.uint8)
+        try:
+            cv2.grabCut(image[cy0:cy1, cx0:cx1], mask, (x0 - cx0, y0 - cy0, x1 - x0, y1 - y0), np.zeros((1, 65)),
+                        np.zeros((1, 65)), 4, cv2.GC_INIT_WITH_RECT)
+        except cv2.error:
+            continue
+        fg = ((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)).astype(np.uint8)
+        found = _component_at(cv2.morphologyEx(fg, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)), x - cx0, y - cy0, r)
+        if found is None:
+            continue
+        box = _box(found[1], cx0, cy0)
+        whole = ((box[0] > x0 + 1 or x0 <= 1) and (box[1] > y0 + 1 or y0 <= 1) and (box[2] < x1 - 1 or x1 >= w - 1)
+                 and (box[3] < y1 - 1 or y1 >= h - 1))
+        if found_boxes and found_boxes[-1][1] and _iou(found_boxes[-1][0], box) >= STILL_AGREE:
+            return found_boxes[-1][0]
+        found_boxes.append((box, whole))
+    return found_boxes[-1][0] if found_boxes else None
+
+
+def _flood_box(image: np.ndarray, x: int, y: int):
+    """The box of the region of similar colour flooded from the tap; None when it is tiny."""
+    import cv2
+
+    h, w = image.shape[:2]
     blurred = cv2.GaussianBlur(image, (5, 5), 0)
     mask = np.zeros((h + 2, w + 2), np.uint8)
     flags = 4 | cv2.FLOODFILL_MASK_ONLY | cv2.FLOODFILL_FIXED_RANGE | (255 << 8)
     cv2.floodFill(blurred, mask, (x, y), (0, 0, 0), (18, 18, 18), (18, 18, 18), flags)
     ys, xs = np.nonzero(mask[1:-1, 1:-1])
     if len(xs) < 16:
-        r = 0.08 * min(w, h)
-        return (max(0.0, x - r), max(0.0, y - r), min(float(w), x + r), min(float(h), y + r))
+        return None
     return (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
 
 
+def box_from_tap(image: np.ndarray, tap: tuple[float, float], frames: Optional[Sequence[np.ndarray]] = None,
+                 background: Optional[np.ndarray] = None) -> tuple[float, float, float, float]:
+    """A box (x0, y0, x1, y1) around the object under a tap on ``image``.
+
+    With the lesson's ``frames`` (or their still ``background``: ``lesson_background``), the object
+    is what moved under the tap, cut by colour where a hand moving with it joins it. Without them,
+    or when nothing moved there: GrabCut in squares growing round the tap (the foreground's part
+    under it), else the region of similar colour flooded from it, else a small square."""
+    import cv2
+
+    if image.ndim == 2:  # GrabCut and the colour cut want three channels
+        image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    h, w = image.shape[:2]
+    x, y = int(np.clip(tap[0], 0, w - 1)), int(np.clip(tap[1], 0, h - 1))
+    if background is None and frames is not None:
+        background = lesson_background(frames)
+    box = None
+    if background is not None and background.shape == image.shape and image.dtype == np.uint8:
+        box = _moving_box(image, x, y, background)
+    if box is None:
+        box = _still_box(image, x, y)
+    if box is None:
+        box = _flood_box(image, x, y)
+    if box is None:
+        r = 0.08 * min(w, h)
+        box = (max(0.0, x - r), max(0.0, y - r), min(float(w), x + r), min(float(h), y + r))
+    return box
+
+
 def carry_boxes(frames: Sequence[np.ndarray], marks: Sequence[Mark], tracker: str = "CSRT") -> list[Optional[tuple]]:
-    """Each frame's box of the object (x0, y0, x1, y1) or None: the marked frames' own, and the
+    """Each frame's box of the object (x0, y0, x1, y1) or None: the marked frames' own (a tap's box
+    is ``box_from_tap``'s, seeing what moved against the frames' still background), and the
     tracker's from each mark to the next (frames before the first mark are tracked backwards)."""
     from core.detect.tracking import ObjectTracker, available_trackers
 
     kind = tracker if tracker in available_trackers() else available_trackers()[0]
     boxes: list[Optional[tuple]] = [None] * len(frames)
     at = {}
+    background = None
     for m in marks:
         i = int(m.frame)
         if not 0 <= i < len(frames):
             raise ValueError(f"mark on frame {i}: there are {len(frames)} frames")
-        at[i] = m.box if m.box is not None else box_from_tap(frames[i], m.tap)
+        if m.box is None and background is None:
+            background = lesson_background(frames)
+        at[i] = m.box if m.box is not None else box_from_tap(frames[i], m.tap, background=background)
     if not at:
         raise ValueError("no marks: box or tap the object in at least one frame")
     order = sorted(at)
