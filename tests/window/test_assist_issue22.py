@@ -45,11 +45,13 @@ def rect_in(w, widget) -> QtCore.QRect:
 def test_deskarm_assist_fills_the_available_geometry_of_its_screen(qtbot, monkeypatch):
     """run_assist_window as ``deskarm --assist`` calls it, on the offscreen screen (800x800: bigger
     than the 800x480 panel, like X11 without a window manager nothing acts on the window state)."""
+    import app.startup as startup
     from app.assist_window import run_assist_window
     from app.startup import GuiThreadGarbage
 
     app = QtWidgets.QApplication.instance()
-    monkeypatch.setattr(QtWidgets.QApplication, "exec", lambda self: 0)  # return at once: the test drives
+    # return at once, the window kept (run_until_quit would run the loop, then delete it): the test drives
+    monkeypatch.setattr(startup, "run_until_quit", lambda app, window: 0)
     before = set(app.topLevelWidgets())
     run_assist_window((800, 480))
     windows = [w for w in app.topLevelWidgets() if isinstance(w, AssistWindow) and w not in before]
@@ -70,11 +72,12 @@ def test_deskarm_assist_fills_the_available_geometry_of_its_screen(qtbot, monkey
 FILL_SCRIPT = r"""
 import json, sys, time
 from PySide6 import QtWidgets
+import app.startup as startup
 from app.startup import GuiThreadGarbage, make_app
 from app.assist_window import AssistSettings, AssistWindow, run_assist_window, save_assist_settings
 
 app = make_app()
-QtWidgets.QApplication.exec = lambda self: 0  # run_assist_window shows and starts, the script measures
+startup.run_until_quit = lambda app, window: 0  # run_assist_window shows and starts, the script measures
 out = {}
 for mode in ("touch", "scan2", "scan1"):
     save_assist_settings(AssistSettings(mode=mode))
