@@ -55,11 +55,13 @@ def lesson(n_frames: int = LESSON_FRAMES, seed: int = 7,
            hand: bool = False) -> tuple[list[np.ndarray], list[Optional[tuple]]]:
     """(frames, true boxes x0 y0 x1 y1 or None) of a card moved across the default desk; ``hand``:
     a hand pushing it along (touching its near edge, forearm towards the user: it moves with it)."""
+    from core.settings import CameraSettings
     from core.sim.dataset import _FixedScene, desk_for, random_scene
     from core.sim.scenarios import Card, Hand
 
     state, _, _, _ = random_scene(seed)
-    desk = desk_for(0)
+    desk = desk_for(0)  # shared (cached) with the dataset's renders: its camera settings are whatever they left
+    desk.set_camera_settings(CameraSettings())  # the app's default desk, as a new user's camera starts
     frames, truth = [], []
 
     def path(s: float) -> tuple[float, float]:
