@@ -157,13 +157,19 @@ def test_the_followed_objects_three_line_label_covers_no_other_label(qtbot, wind
             assert_labels_in_their_colours(view, labels)
 
 
-def test_a_three_line_label_in_a_small_crowded_view_covers_no_other(qtbot):
+def small_view(qtbot) -> CameraView:
+    """A camera view the size of the 800x480 window's, showing a grey 640x480 image."""
     view = CameraView("Left")
     qtbot.addWidget(view)
     view.resize(185, 190)  # the 800x480 window's view
     view.show()
     qtbot.waitExposed(view)
     view.show_image(np.full((480, 640, 3), 90, np.uint8))
+    return view
+
+
+def test_a_three_line_label_in_a_small_crowded_view_covers_no_other(qtbot):
+    view = small_view(qtbot)
     followed = square(4, 330, 250, "#4 green 0.98\nx 12.0 y -3.5 z 2.0 cm\nv 1.2 cm/s")
     others = [square(k, x, y, f"#{k} {w}") for k, x, y, w in
               ((1, 150, 120, "red"), (2, 480, 120, "blue"), (3, 150, 380, "yellow"), (5, 480, 380, "pink"))]
@@ -181,12 +187,7 @@ def square(object_id: int, x: float, y: float, label: str, r: float = 22.0) -> O
 
 
 def test_a_crowded_small_view_keeps_labels_apart_and_beside_their_objects(qtbot):
-    view = CameraView("Left")
-    qtbot.addWidget(view)
-    view.resize(185, 190)  # the 800x480 window's view
-    view.show()
-    qtbot.waitExposed(view)
-    view.show_image(np.full((480, 640, 3), 90, np.uint8))
+    view = small_view(qtbot)
     words = ["red", "green", "blue", "yellow", "orange", "purple", "pink"]
     # 14 balls in two tight rows in the middle of the image
     overlays = [square(k + 1, 200 + 45 * (k % 7), 220 + 60 * (k // 7), f"#{k + 1} {words[k % 7]}")

@@ -328,22 +328,9 @@ def test_a_frames_markers_and_objects_are_labelled_in_one_layout_where_two_would
     """set_overlays (what the window's draw calls) lays the labels out once for both kinds (issue 28:
     two layouts a view a frame were a tenth of the window's draw), where set_markers then
     set_objects, each laying them out, put them."""
-    from widgets.camera_view import ObjectOverlay
+    from tests.window.test_object_labels import small_view, square
 
-    def square(object_id, x, y, label, r=22.0):
-        return ObjectOverlay(object_id, (x - r, y - r, 2 * r, 2 * r),
-                             np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]]), label)
-
-    views = []
-    for _ in range(2):
-        view = CameraView("Left")
-        qtbot.addWidget(view)
-        view.resize(185, 190)  # the 800x480 window's view
-        view.show()
-        qtbot.waitExposed(view)
-        view.show_image(np.full((480, 640, 3), 90, np.uint8))
-        views.append(view)
-    one, two = views
+    one, two = small_view(qtbot), small_view(qtbot)
     frames = [([MarkerOverlay(23, np.array(CORNERS) + d, True, "23: x 3.1 y 15.2 z 0.0 cm")],
                [square(1, 150 + d, 130, "#1 red"), square(2, 160, 190 + d, "#2 blue 0.98"),
                 square(3, 420, 300 - d, "#3 green")]) for d in (0.0, 4.0, 9.0)]
