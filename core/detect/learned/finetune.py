@@ -24,7 +24,8 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from core.detect.learned.model import BN_EPS, DeskNet, TaughtBranch, _flip_batch, detection_loss, make_targets
+from core.detect.learned.model import (BN_EPS, DeskNet, TaughtBranch, _flip_batch, detection_loss, make_targets,
+                                        optimise_step)
 
 __all__ = ["net_from_onnx", "add_classes", "finetune", "FinetuneResult", "platt", "apply_platt", "model_names"]
 
@@ -164,17 +165,7 @@ def finetune(net: DeskNet, batches: BatchSource, steps: int, *, train: str = "al
         _freeze_bn(net)
         cls, box = net(x)
         loss, parts = detection_loss(cls, box, tb)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(params, 10.0)
-        opt.step()
-        d = min(0.995, (1 + step) / (10 + step))
-        with torch.no_grad():
-            for pe, pn in zip(ema_t, net_t):
-                if pe.dtype.is_floating_point:
-                    pe.mul_(d).add_(pn.detach(), alpha=1 - d)
-                else:
-                    pe.copy_(pn)
+        optimise_step(opt, loss, params, zip(ema_t, net_t), step, 0.995)
         running = float(loss) if running is None else 0.95 * running + 0.05 * float(loss)
         if progress is not None:
             done = (step + 1) / steps

@@ -37,7 +37,7 @@ import torch.nn.functional as F
 from core.detect.learned.onnx_graph import MAX_LOG_DISTANCE, STRIDE, build_desk_onnx
 
 __all__ = ["DeskNet", "TaughtBranch", "TrainConfig", "TrainResult", "STRIDE", "make_targets", "detection_loss",
-           "decode", "train_detector", "export_onnx", "fold_batch_norm", "net_layers"]
+           "decode", "train_detector", "export_onnx", "fold_batch_norm", "net_layers", "optimise_step"]
 
 HEAT_SIGMA_MIN_CELLS = 0.6  # a centre's Gaussian is at least this wide (in cells) ...
 HEAT_SIGMA_PER_SIZE = 0.15  # ... and this fraction of the box's size (in cells) for larger boxes
@@ -252,6 +252,24 @@ def detection_loss(class_logits: torch.Tensor, box_raw: torch.Tensor, targets: d
 
 
 # --------------------------------------------------------------------------------------- training
+def optimise_step(opt, loss: torch.Tensor, params, ema_pairs, step: int, max_decay: float) -> None:
+    """One step of ``opt`` on ``loss`` (gradients clipped to norm 10 over ``params``), then the
+    exponential moving average: each (average, live) tensor pair of ``ema_pairs`` moves towards the
+    live one with decay min(max_decay, (1 + step) / (10 + step)) — short runs warm the average up;
+    tensors that are not floating point (batch norm's counters) are copied."""
+    opt.zero_grad(set_to_none=True)
+    loss.backward()
+    torch.nn.utils.clip_grad_norm_(params, 10.0)
+    opt.step()
+    d = min(max_decay, (1 + step) / (10 + step))
+    with torch.no_grad():
+        for pe, pn in ema_pairs:
+            if pe.dtype.is_floating_point:
+                pe.mul_(d).add_(pn.detach(), alpha=1 - d)
+            else:
+                pe.copy_(pn)
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """How to train (defaults: the shipped model's run)."""
@@ -380,17 +398,7 @@ def train_detector(images: np.ndarray, boxes: Sequence[np.ndarray], labels: Sequ
             net.train()
             cls, box = net(x)
             loss, parts = detection_loss(cls, box, tb)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
-            opt.step()
-            d = min(config.ema_decay, (1 + step) / (10 + step))  # short runs: the average warms up
-            with torch.no_grad():
-                for pe, pn in zip(ema_tensors, net_tensors):
-                    if pe.dtype.is_floating_point:
-                        pe.mul_(d).add_(pn.detach(), alpha=1 - d)
-                    else:
-                        pe.copy_(pn)
+            optimise_step(opt, loss, net.parameters(), zip(ema_tensors, net_tensors), step, config.ema_decay)
             step += 1
             last_loss = float(loss.detach())
             running = last_loss if running is None else 0.98 * running + 0.02 * last_loss

@@ -561,7 +561,7 @@ def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, bas
     import torch
 
     from core.detect.learned import finetune as ft
-    from core.detect.learned.model import STRIDE, TaughtBranch, detection_loss, make_targets
+    from core.detect.learned.model import STRIDE, TaughtBranch, detection_loss, make_targets, optimise_step
     from core.detect.learned.shipped import shipped_model_path
 
     name = valid_name(name)
@@ -715,14 +715,7 @@ def teach(name: str, frames: Sequence[np.ndarray], marks: Sequence[Mark], *, bas
         tb["box"] = tb["box"] - shift[:, :, None, None]
         logit, box_raw = branch(x)
         loss, parts = detection_loss(logit, box_raw, tb)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(branch.parameters(), 10.0)
-        opt.step()
-        d = min(0.995, (1 + step) / (10 + step))
-        with torch.no_grad():
-            for pe, pn in zip(ema.parameters(), branch.parameters()):
-                pe.mul_(d).add_(pn.detach(), alpha=1 - d)
+        optimise_step(opt, loss, branch.parameters(), zip(ema.parameters(), branch.parameters()), step, 0.995)
         done = (step + 1) / config.steps
         if budget:
             done = max(done, (time.perf_counter() - t0) / budget)
