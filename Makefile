@@ -9,7 +9,8 @@ STAMP  := $(VENV)/.installed
 setup: $(STAMP)
 
 # Re-install when pyproject.toml changes; uv is ~3x faster than pip when it is available. Bytecode is
-# compiled at install (as pip does; uv only when asked): a Pi's first start would compile it otherwise.
+# compiled at install (as pip does; uv only when asked), deskarm's own packages too (an editable
+# install leaves them as source): a Pi's first start would spend seconds compiling otherwise.
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	@$(PY) -m pip install -q --upgrade pip uv >/dev/null 2>&1 || true
@@ -18,6 +19,7 @@ $(STAMP): pyproject.toml
 	else \
 		$(PY) -m pip install -q -e '.[test]'; \
 	fi
+	@$(PY) -m compileall -q app core widgets >/dev/null || true
 	@$(PY) -m app.qt_libraries || true  # names the apt command when Qt's system libraries are missing
 	@touch $(STAMP)
 

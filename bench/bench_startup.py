@@ -102,6 +102,9 @@ def measure(repetitions: int = REPETITIONS, root: Path = REPO, warmup: bool = Tr
     ``timeout_s``: see ``run_child``.
     """
     if warmup:
+        from bench.bench_pi import compile_sources
+
+        compile_sources(Path(root))  # the bytecode caches a warm-up child cannot write with PYTHONDONTWRITEBYTECODE set
         run_child("bare", root, timeout_s)
         run_child("app", root, timeout_s)
     keys_app = ("python", "visible", "window", "frame", "import_app_gui", "session_create", "main_window_init",
