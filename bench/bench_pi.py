@@ -223,12 +223,17 @@ def compile_sources(root: Path = REPO) -> None:
     """Byte-compile ``root``'s packages into their ``__pycache__`` as ``make setup`` does, so each
     child starts as a user's installed deskarm does: from cached bytecode. (With
     PYTHONDONTWRITEBYTECODE set, as on this machine, nothing else writes it, and every child spent
-    its first second — 3.4 s in the Pi 4 budget — compiling deskarm's sources.)"""
+    about a second of the Pi 4 budget's start-up compiling deskarm's sources and pyqtgraph.)"""
     import compileall
+    import sysconfig
 
     for package in SOURCE_PACKAGES:
         if (root / package).is_dir():
             compileall.compile_dir(str(root / package), quiet=1)
+    # the libraries too, as make setup's install does (a venv made before it did would compile pyqtgraph
+    # at every start); a few seconds when they are compiled already
+    for lib in sorted({sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}):
+        compileall.compile_dir(lib, quiet=2, workers=0)  # quiet=2: templates that are not Python say nothing
 
 
 def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None) -> list[dict]:
