@@ -149,6 +149,20 @@ def _kernel(size: int) -> Optional[np.ndarray]:
     return None if size <= 1 else cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
 
 
+# The half-size search (issue 28: a Pi 4 budget). Colours are first looked for in the image shrunk
+# to half its size (INTER_AREA: each pixel the mean of a 2x2 block), a quarter of the pixels to
+# convert and classify; the masks are then made, opened, closed and outlined at full size only in
+# a box around each patch found there, so the blobs and their outlines are those of the
+# full-size search (tests/detect/test_colour_regions.py). A blob that survives a 3 px opening and
+# is 16 px² or more holds a whole 2x2 block of its colour, which the half-size image keeps; so
+# the half-size search is used only with ``open_px`` ≥ HALF_SIZE_MIN_OPEN_PX and ``min_area_px``
+# ≥ HALF_SIZE_MIN_AREA_PX, and the whole image is searched at full size otherwise.
+HALF_SIZE_MIN_OPEN_PX = 3
+HALF_SIZE_MIN_AREA_PX = 16.0
+HALF_SIZE_MIN_SIDE_PX = 16  # a smaller image (an ROI) is searched at full size
+HALF_SIZE_MAX_BOXES = 12  # a colour found in more patches than this: one box around them all
+
+
 class HsvDetector(BaseDetector):
     """Blobs of named HSV colours, largest first (across colours), at most ``max_objects`` per colour.
 
@@ -170,46 +184,77 @@ class HsvDetector(BaseDetector):
         # pixels that are 0 in the whole image too), and the outlines need a row of 0 around them
         self._margin = p.open_px + p.close_px + 2
         self._luts = _bit_luts(p.colours)
+        self.half_size = p.open_px >= HALF_SIZE_MIN_OPEN_PX and p.min_area_px >= HALF_SIZE_MIN_AREA_PX
 
     def masks(self, image_bgr: np.ndarray) -> dict[str, np.ndarray]:
-        """Each colour's cleaned mask (after opening and closing) of a whole image, by name."""
-        out = {}
-        shape = check_image(image_bgr).shape[:2]
-        for name, (cleaned, x0, y0) in self._regions(image_bgr).items():
-            mask = np.zeros(shape, np.uint8)
-            mask[y0:y0 + cleaned.shape[0], x0:x0 + cleaned.shape[1]] = cleaned
-            out[name] = mask
+        """Each colour's cleaned mask (after opening and closing) of a whole image, by name (the
+        full-size search: every pixel)."""
+        image = _bgr(image_bgr)
+        out = {c.name: np.zeros(image.shape[:2], np.uint8) for c in self._params.colours}
+        for name, cleaned, x0, y0 in self._regions(image):
+            out[name][y0:y0 + cleaned.shape[0], x0:x0 + cleaned.shape[1]] = cleaned
         return out
 
-    def _regions(self, image_bgr: np.ndarray) -> dict[str, tuple[np.ndarray, int, int]]:
-        """Each colour's cleaned mask around its pixels only: (mask of a region, region x0, y0).
+    @staticmethod
+    def _bits(hsv: np.ndarray, lut: np.ndarray) -> np.ndarray:
+        """Bit k set where the pixel is in colour first + k's range (``_bit_luts``): all 8 colours of a
+        group in one table look-up and two ANDs instead of 8 inRange passes over the image."""
+        h_bits, s_bits, v_bits = cv2.split(cv2.LUT(hsv, lut))
+        return cv2.bitwise_and(cv2.bitwise_and(h_bits, s_bits), v_bits)
+
+    def _regions(self, image: np.ndarray) -> list[tuple[str, np.ndarray, int, int]]:
+        """Each colour's cleaned mask around its pixels only: (name, mask of a region, region x0, y0),
+        for the colours present.
 
         The opening and closing run on the bounding box of the colour's pixels grown by
-        ``_margin`` (empty when none), not on the whole image: most colours are absent or small
+        ``_margin`` (none when there are none), not on the whole image: most colours are absent or small
         in a view, and the morphology on whole masks was most of this detector's time. Outside
         that box the whole-image result is 0 too, so the outlines are the same (see _margin)."""
-        image = check_image(image_bgr)
-        if image.ndim == 2:
-            image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
         hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
         h_img, w_img = hsv.shape[:2]
-        out = {}
+        out = []
         colours = self._params.colours
+        m = self._margin
         for first, lut in self._luts:
-            # bit k of ``bits``: the pixel is in colour first + k's range (all 8 colours of a group in
-            # one table look-up and two ANDs instead of 8 inRange passes over the image)
-            h_bits, s_bits, v_bits = cv2.split(cv2.LUT(hsv, lut))
-            bits = cv2.bitwise_and(cv2.bitwise_and(h_bits, s_bits), v_bits)
+            bits = self._bits(hsv, lut)
             for k, colour in enumerate(colours[first:first + 8]):
                 mask = cv2.bitwise_and(bits, 1 << k)  # 1 << k where in range, else 0
                 x, y, w, h = cv2.boundingRect(mask)  # of the non-zero pixels; 0 wide when there are none
                 if w == 0 or h == 0:
-                    out[colour.name] = (mask[:0, :0], 0, 0)
                     continue
-                m = self._margin
                 x0, y0, x1, y1 = max(x - m, 0), max(y - m, 0), min(x + w + m, w_img), min(y + h + m, h_img)
                 _, region = cv2.threshold(mask[y0:y1, x0:x1], 0, 255, cv2.THRESH_BINARY)
-                out[colour.name] = self._cleaned(region, x0, y0)
+                out.append((colour.name, *self._cleaned(region, x0, y0)))
+        return out
+
+    def _half_size_regions(self, image: np.ndarray) -> list[tuple[str, np.ndarray, int, int]]:
+        """``_regions``' masks around each patch of a colour that the half-size image shows (see
+        HALF_SIZE_MIN_OPEN_PX): (name, cleaned mask of a box, box x0, y0), boxes of one colour apart."""
+        h_img, w_img = image.shape[:2]
+        small = cv2.resize(image, (w_img // 2, h_img // 2), interpolation=cv2.INTER_AREA)
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        sx, sy = w_img / small.shape[1], h_img / small.shape[0]  # 2, or a little more for odd sides
+        # a full-size pixel of the colour lies within one half-size pixel of a patch (its block
+        # mixed with the background there may be out of range); then the morphology's margin
+        m = self._margin + 2
+        out = []
+        colours = self._params.colours
+        for first, lut in self._luts:
+            bits = self._bits(hsv, lut)
+            for k, colour in enumerate(colours[first:first + 8]):
+                mask = cv2.bitwise_and(bits, 1 << k)
+                whole = cv2.boundingRect(mask)
+                if whole[2] == 0 or whole[3] == 0:
+                    continue
+                patches, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+                rects = [whole] if len(patches) > HALF_SIZE_MAX_BOXES else [cv2.boundingRect(c) for c in patches]
+                boxes = _merged([(max(int(x * sx) - m, 0), max(int(y * sy) - m, 0),
+                                  min(int(math.ceil((x + w) * sx)) + m, w_img), min(int(math.ceil((y + h) * sy)) + m, h_img))
+                                 for x, y, w, h in rects])
+                for x0, y0, x1, y1 in boxes:
+                    box_bits = self._bits(cv2.cvtColor(image[y0:y1, x0:x1], cv2.COLOR_BGR2HSV), lut)
+                    _, region = cv2.threshold(cv2.bitwise_and(box_bits, 1 << k), 0, 255, cv2.THRESH_BINARY)
+                    out.append((colour.name, *self._cleaned(region, x0, y0)))
         return out
 
     def _cleaned(self, region: np.ndarray, x0: int, y0: int) -> tuple[np.ndarray, int, int]:
@@ -220,20 +265,30 @@ class HsvDetector(BaseDetector):
             region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, self._close)
         return region, x0, y0
 
-    def _detect(self, image: np.ndarray) -> list[Detection]:
+    def _detect(self, image: np.ndarray, half_size: Optional[bool] = None) -> list[Detection]:
         p = self._params
-        found: list[tuple[float, Detection]] = []
-        for name, (region, x0, y0) in self._regions(image).items():
-            if region.size == 0:
-                continue
+        image = _bgr(image)
+        if half_size is None:
+            half_size = self.half_size
+        if half_size and min(image.shape[:2]) >= HALF_SIZE_MIN_SIDE_PX:
+            regions = self._half_size_regions(image)
+        else:
+            regions = self._regions(image)
+        blobs_of: dict[str, list] = {}
+        for name, region, x0, y0 in regions:
             contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE, offset=(x0, y0))
-            blobs = []
+            blobs = blobs_of.setdefault(name, [])
             for contour in contours:
                 m = cv2.moments(contour)
                 area = m["m00"]
                 if area <= 0.0 or area < p.min_area_px:
                     continue
                 blobs.append((area, m, contour))
+        found: list[tuple[float, Detection]] = []
+        for colour in p.colours:  # the colours' order, as one whole-image region per colour gave
+            blobs = blobs_of.get(colour.name)
+            if not blobs:
+                continue
             blobs.sort(key=lambda b: -b[0])
             for area, m, contour in blobs[: p.max_objects]:
                 pts = contour.reshape(-1, 2).astype(np.float64)
@@ -241,13 +296,39 @@ class HsvDetector(BaseDetector):
                 (_, _), radius = cv2.minEnclosingCircle(contour)
                 x, y, w, h = cv2.boundingRect(contour)
                 found.append((area, Detection(
-                    kind="colour", label=name,
+                    kind="colour", label=colour.name,
                     score=min(1.0, area / hull_area) if hull_area > 0 else 0.0,
                     box=(x, y, w, h), centre_px=(m["m10"] / area, m["m01"] / area),
                     radius_px=radius, contour=pts,
                 )))
         found.sort(key=lambda f: -f[0])
         return [d for _, d in found]
+
+
+def _bgr(image_bgr: np.ndarray) -> np.ndarray:
+    """A checked image as BGR (a grey one converted)."""
+    image = check_image(image_bgr)
+    return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image
+
+
+def _merged(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
+    """Boxes (x0, y0, x1, y1) that overlap or touch replaced by their union until none do."""
+    boxes = list(boxes)
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(boxes)):
+            a = boxes[i]
+            for j in range(i + 1, len(boxes)):
+                b = boxes[j]
+                if a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]:
+                    boxes[i] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+                    del boxes[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return boxes
 
 
 def _circular_median_hue(h: np.ndarray) -> float:

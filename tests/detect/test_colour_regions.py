@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.detect import stereo
-from core.detect.colour import HsvDetector, HsvParams, HsvRange
+from core.detect.colour import DEFAULT_COLOURS, HsvDetector, HsvParams, HsvRange
 
 
 def whole_image_masks(det: HsvDetector, image: np.ndarray) -> dict:
@@ -115,3 +115,62 @@ def test_more_than_eight_colours_take_two_table_look_ups_and_no_in_range_pass(mo
         found += len(det.detect(img))
     assert calls == []
     assert found > 10
+
+
+def _blobs(detections) -> list:
+    return [(d.label, d.box, d.centre_px, d.radius_px, d.score, d.contour.tobytes()) for d in detections]
+
+
+def test_the_half_size_search_finds_the_full_size_blobs_converting_a_fraction_of_the_pixels(monkeypatch):
+    """With the defaults the colours are looked for in a half-size image and the masks made at full
+    size only around what it shows (issue 28: a Pi 4 budget): the same blobs, outlines and centres
+    as the full-size search, on the simulated desk's objects (as rendered and as a webcam would
+    deliver them) and on blurred noise of every hue, with more than 8 colours too."""
+    from core.sim.desk import SimDesk
+    from core.sim.realism import apply_realism
+    from core.sim.rig import SimRig
+
+    rig = SimRig()
+    scene = SimDesk(rig, scenario="objects", seed=0)
+    rng = np.random.default_rng(4)
+    images = []
+    for k in range(0, 90, 15):
+        left, right, _ = scene.render(k / 30.0)
+        images += [left, right, *apply_realism([left, right], rng, t=k / 30.0)]
+    det = HsvDetector()
+    assert det.half_size
+    found = 0
+    for img in images:
+        half = det.detect(img)
+        assert _blobs(half) == _blobs(det._detect(img, half_size=False))
+        found += len(half)
+    assert found >= 6 * len(images)  # the seven coloured objects, most of them in every view
+    many = HsvDetector(HsvParams(colours=(*DEFAULT_COLOURS, HsvRange("dark", 0, 0, 0, 179, 255, 40),
+                                          HsvRange("grey", 0, 0, 60, 179, 40, 200),
+                                          HsvRange("wrap", 160, 30, 30, 20, 200, 250))))
+    speckled = [cv2.resize(img, (640, 480), interpolation=cv2.INTER_LINEAR) for img in speckled_images(6, seed=7)]
+    found = 0
+    for img in speckled + images[:4]:
+        half = many.detect(img)
+        assert _blobs(half) == _blobs(many._detect(img, half_size=False))
+        found += len(half)
+    assert found > 20
+
+    converted = []  # pixels converted to HSV (the half-size image's and the boxes' at full size)
+    real = cv2.cvtColor
+
+    def recorded(src, code, *args, **kwargs):
+        if code == cv2.COLOR_BGR2HSV:
+            converted.append(src.shape[0] * src.shape[1])
+        return real(src, code, *args, **kwargs)
+
+    monkeypatch.setattr(cv2, "cvtColor", recorded)
+    det.detect(images[0])
+    full = images[0].shape[0] * images[0].shape[1]
+    assert 0 < sum(converted) < 0.5 * full, (sum(converted), full)
+
+
+@pytest.mark.parametrize("changes", [{"open_px": 0}, {"open_px": 1}, {"min_area_px": 10}])
+def test_small_blobs_or_no_opening_get_the_full_size_search(changes):
+    """A blob thinner than 3 px or smaller than 16 px² may not show in the half-size image."""
+    assert not HsvDetector(HsvParams(**changes)).half_size
