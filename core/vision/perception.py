@@ -2,7 +2,9 @@
 
 Speed comes from searching only near each marker's last position (a small crop per marker and
 view) and running a full-frame detection every ``full_search_every`` frames or when a marker is
-lost. Rectification is applied to the detected corner points (``cv2.undistortPoints`` with the
+lost (on every frame for the first ``LOST_EVERY_FRAME`` frames of a loss, then every
+``LOST_SEARCH_EVERY`` frames: a marker hidden by the arm, gone or never there costs a third).
+Rectification is applied to the detected corner points (``cv2.undistortPoints`` with the
 rectifying R and P) rather than to whole images: the result equals detection in remapped images
 without the interpolation, and costs microseconds instead of a millisecond.
 """
@@ -201,6 +203,10 @@ def quad_centre(c: np.ndarray) -> np.ndarray:
     return p0 + s * d1
 
 
+LOST_EVERY_FRAME = 3  # a marker lost this many frames or fewer is looked for (full search) on every frame …
+LOST_SEARCH_EVERY = 3  # … then on every this many frames (and on the robust searches' frames)
+
+
 @dataclass
 class _Track:
     """What perception remembers about one marker between frames."""
@@ -250,7 +256,8 @@ class StereoMarkerPerception:
     """Find ArUco markers in a stereo pair and locate their centres in robot_base.
 
     ``base_T_camera`` is the 4x4 pose of camera_left in robot_base. ``marker_ids`` lists the ids
-    to report even when lost (others are reported while seen). Not thread-safe: one per worker.
+    to report even when lost (others are reported while seen; only the ids asked for get the
+    robust detector's periodic searches while lost). Not thread-safe: one per worker.
     """
 
     def __init__(
@@ -269,7 +276,7 @@ class StereoMarkerPerception:
         self.dictionary = dictionary_name(dictionary)  # canonical name, for a rebuilt perception
         self.detector = make_detector(dictionary, fast=True)
         self.robust_detector = make_detector(dictionary)
-        self.robust_every = 10  # frames between robust full searches while a marker is missing
+        self.robust_every = 10  # frames between robust full searches while a marker asked for is missing
         self.full_search_every = max(1, int(full_search_every))
         self.search_margin = float(search_margin)  # crop border, in marker sizes
         self.tracks: dict[int, _Track] = {i: _Track() for i in self.marker_ids}
@@ -284,14 +291,22 @@ class StereoMarkerPerception:
         self._last = None
 
     # --- detection -------------------------------------------------------------------------
-    def _search_windows(self, side: str, shape) -> Optional[list[tuple[int, int, int, int]]]:
-        """Crops (x0, y0, x1, y1) around the predicted markers, or None for a full search."""
+    def _search_windows(self, side: str, shape) -> Optional[tuple[list[tuple[int, int, int, int]], list[int]]]:
+        """Crops (x0, y0, x1, y1) around the predicted markers and the ids they must find, or None
+        for a full search.
+
+        A marker lost for more than ``LOST_EVERY_FRAME`` frames (hidden by the arm, gone, or
+        never there) is looked for by a full search only every ``LOST_SEARCH_EVERY`` frames and
+        on the robust searches' frames; in between the seen markers keep their crops (a full
+        search per frame for every marker that is not there was most of the markers' time)."""
         h, w = shape[:2]
-        boxes = []
-        for track in self.tracks.values():
+        boxes, ids = [], []
+        for marker_id, track in self.tracks.items():
             corners = track.left if side == "left" else track.right
             if corners is None or track.frames_since_seen > 0:
-                return None  # lost or never seen: search everywhere
+                if track.frames_since_seen <= LOST_EVERY_FRAME or self._lost_search_due():
+                    return None  # lost (or never seen) and due: search everywhere
+                continue
             vel = track.velocity_left if side == "left" else track.velocity_right
             predicted = corners + (vel if vel is not None else 0.0)
             size = float(np.max(np.ptp(predicted, axis=0)))
@@ -303,18 +318,24 @@ class StereoMarkerPerception:
             if x1 - x0 < 8 or y1 - y0 < 8:
                 return None
             boxes.append((x0, y0, x1, y1))
-        return _merge_boxes(boxes)
+            ids.append(marker_id)
+        return _merge_boxes(boxes), ids
+
+    def _lost_search_due(self) -> bool:
+        """Is this a frame on which markers lost for long are looked for (full search)?"""
+        return self.frames % LOST_SEARCH_EVERY == 0 or self.frames % self.robust_every == 0
 
     def _detect_view(self, side: str, image: np.ndarray, force_full: bool):
         """Markers found in one view and whether a full-frame search ran."""
-        windows = None if force_full else self._search_windows(side, image.shape)
-        if windows is not None:
+        search = None if force_full else self._search_windows(side, image.shape)
+        if search is not None:
+            windows, expected = search
             found: dict[int, np.ndarray] = {}
             full_size = max(image.shape[:2])
             for x0, y0, x1, y1 in windows:
                 detector = self._crop_detector(full_size, max(x1 - x0, y1 - y0))
                 found.update(detect_markers(detector, image[y0:y1, x0:x1], (x0, y0)))
-            if all(i in found for i in self.tracks):
+            if all(i in found for i in expected):
                 return found, False
         # periodic search, or a tracked marker left its window: look everywhere on this frame
         found = detect_markers(self.detector, image)
@@ -329,9 +350,13 @@ class StereoMarkerPerception:
         return self._crops.for_crop(self.detector, full_size, crop_size)
 
     def _robust_allowed(self, missing) -> bool:
-        """Robust (slow) search right after a loss, then every ``robust_every`` frames."""
-        recent = any(self.tracks[i].frames_since_seen <= 2 for i in missing)
-        return recent or self.frames % self.robust_every == 0
+        """Robust (slow) search right after a loss, then every ``robust_every`` frames while a marker
+        asked for (``marker_ids``) is missing: another marker (the arm's tool marker) is reported
+        while the fast detector sees it (a robust search for it each time the arm hid it was a
+        sixth of the markers' time following a marker)."""
+        if any(self.tracks[i].frames_since_seen <= 2 for i in missing):
+            return True
+        return self.frames % self.robust_every == 0 and any(i in self.marker_ids for i in missing)
 
     # --- geometry --------------------------------------------------------------------------
     def rectify_points(self, side: str, pts: np.ndarray) -> np.ndarray:

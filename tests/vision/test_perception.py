@@ -100,3 +100,76 @@ def test_quad_centre_is_the_diagonal_intersection():
 
 def test_overlapping_windows_merge():
     assert _merge_boxes([(0, 0, 10, 10), (5, 5, 20, 20), (30, 30, 40, 40)]) == [(0, 0, 20, 20), (30, 30, 40, 40)]
+
+
+def test_a_marker_hidden_for_long_is_looked_for_every_third_frame_and_found_when_it_comes_back(rig):
+    """Issue 28 (a Pi 4 budget): a full-frame search on every frame while a marker is hidden (by the
+    arm following it) was most of the markers' time. After LOST_EVERY_FRAME frames a lost marker is
+    looked for every LOST_SEARCH_EVERY frames; the marker still seen keeps its crop every frame."""
+    from core.vision.perception import LOST_EVERY_FRAME, LOST_SEARCH_EVERY
+
+    p = StereoMarkerPerception(rig.calibration(), rig.base_T_camera, full_search_every=100)
+    hidden = range(5, 35)
+    full, found_50, found_23 = [], [], []
+    box = {}
+    for k, f in enumerate(frames("static", 45)):
+        if k in hidden:  # marker 50 covered in both views (grey, like the arm's link)
+            left, right = f.left.copy(), f.right.copy()
+            for image, side in ((left, "left"), (right, "right")):
+                x0, y0 = np.floor(box[side].min(axis=0)).astype(int) - 6
+                x1, y1 = np.ceil(box[side].max(axis=0)).astype(int) + 6
+                image[y0:y1, x0:x1] = 128
+            f = StereoFrame(f.seq, f.t, left, right, truth=f.truth)
+        r = p.process(f)
+        if k == 0:  # where marker 50 is (the scene is static)
+            box = {"left": np.array(r.marker(50).left_corners), "right": np.array(r.marker(50).right_corners)}
+        full.append(r.full_frame_search)
+        found_23.append(r.marker(23).found)
+        found_50.append(r.marker(50).found)
+    assert all(found_23)
+    assert [k for k, seen in enumerate(found_50) if not seen] == list(hidden)
+    assert found_50[hidden[-1] + 1: hidden[-1] + 1 + LOST_SEARCH_EVERY] != [False] * LOST_SEARCH_EVERY
+    searches = [k for k in hidden if full[k]]
+    # the frame it vanished on and the next LOST_EVERY_FRAME ones, then a third of the frames
+    assert searches[:LOST_EVERY_FRAME + 1] == list(range(hidden[0], hidden[0] + LOST_EVERY_FRAME + 1))
+    assert len(searches) <= LOST_EVERY_FRAME + 1 + len(hidden) // LOST_SEARCH_EVERY + 3, searches
+    assert max(b - a for a, b in zip(searches, searches[1:])) <= LOST_SEARCH_EVERY
+
+
+class _Counted:
+    """A detector wrapper counting the frames it searched (per perception frame)."""
+
+    def __init__(self, detector, perception):
+        self.detector, self.perception, self.frames = detector, perception, []
+
+    def detectMarkers(self, grey):  # noqa: N802 (OpenCV's name)
+        self.frames.append(self.perception.frames)
+        return self.detector.detectMarkers(grey)
+
+
+def test_the_robust_search_looks_again_periodically_only_for_the_markers_asked_for(rig):
+    """A marker not asked for (the arm's tool marker) gets the robust detector right after it is
+    lost, not every robust_every frames while it stays away; a marker asked for gets both."""
+    for asked, hide in (((23,), 50), ((23, 50), 50)):
+        p = StereoMarkerPerception(rig.calibration(), rig.base_T_camera, marker_ids=asked, full_search_every=100)
+        box = {}
+        for k, f in enumerate(frames("static", 40)):
+            if k == 1:
+                p.robust_detector = robust = _Counted(p.robust_detector, p)
+            if k >= 5:  # hidden from frame 5 on, in both views
+                left, right = f.left.copy(), f.right.copy()
+                for image, side in ((left, "left"), (right, "right")):
+                    x0, y0 = np.floor(box[side].min(axis=0)).astype(int) - 6
+                    x1, y1 = np.ceil(box[side].max(axis=0)).astype(int) + 6
+                    image[y0:y1, x0:x1] = 128
+                f = StereoFrame(f.seq, f.t, left, right, truth=f.truth)
+            r = p.process(f)
+            if k == 0:
+                box = {"left": np.array(r.marker(hide).left_corners), "right": np.array(r.marker(hide).right_corners)}
+        right_after = [n for n in robust.frames if n <= 6 + 3]  # frame numbers count from 1
+        later = [n for n in robust.frames if n > 6 + 3]
+        assert right_after, robust.frames
+        if hide in asked:
+            assert later and all(n % p.robust_every == 0 for n in later), robust.frames
+        else:
+            assert later == [], robust.frames
