@@ -175,21 +175,24 @@ def blob_centre(image: Optional[np.ndarray], d: Detection, grow_px: int = 2) -> 
         return d.centre_px
     pts = np.round(d.contour).astype(np.int32)
     pad = grow_px + 4
-    lo = pts.min(axis=0) - pad
-    hi = pts.max(axis=0) + pad + 1
-    if (hi - lo).prod() > 4_000_000:  # a huge blob: the outline centroid is plenty
+    bx, by, bw, bh = cv2.boundingRect(pts)  # Python ints: the box arithmetic below stays off numpy
+    x0, y0, x1, y1 = bx - pad, by - pad, bx + bw + pad, by + bh + pad
+    if (x1 - x0) * (y1 - y0) > 4_000_000:  # a huge blob: the outline centroid is plenty
         return d.centre_px
-    mask = np.zeros((int(hi[1] - lo[1]), int(hi[0] - lo[0])), np.uint8)
-    cv2.drawContours(mask, [(pts - lo).reshape(-1, 1, 2)], 0, 255, -1)
-    m = cv2.moments(mask, binaryImage=True)
-    if m["m00"] <= 0:
-        return d.centre_px
-    area_centre = (float(lo[0] + m["m10"] / m["m00"]), float(lo[1] + m["m01"] / m["m00"]))
+    mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.drawContours(mask, [pts.reshape(-1, 1, 2)], 0, 255, -1, offset=(-x0, -y0))
+
+    def area_centre() -> tuple[float, float]:  # the enclosed pixels' centroid (only when returned)
+        m = cv2.moments(mask, binaryImage=True)
+        if m["m00"] <= 0:
+            return d.centre_px
+        return (float(x0 + m["m10"] / m["m00"]), float(y0 + m["m01"] / m["m00"]))
+
     if image is None or image.ndim != 3:
-        return area_centre
+        return area_centre()
     H, W = image.shape[:2]
-    if lo[0] < 0 or lo[1] < 0 or hi[0] > W or hi[1] > H:
-        return area_centre  # at the image border: the ring is cut off
+    if x0 < 0 or y0 < 0 or x1 > W or y1 > H:
+        return area_centre()  # at the image border: the ring is cut off
     inner = cv2.erode(mask, _K3, iterations=2)
     # the dilations grow one from the other (dilating n then m times is dilating n + m times):
     # 5 passes instead of 2 + 6 + 4
@@ -197,25 +200,27 @@ def blob_centre(image: Optional[np.ndarray], d: Detection, grow_px: int = 2) -> 
     outside = cv2.dilate(near, _K3, iterations=1)
     ring = cv2.dilate(outside, _K3, iterations=2) & ~outside
     if cv2.countNonZero(inner) < 8 or cv2.countNonZero(ring) < 8:
-        return area_centre
+        return area_centre()
     # OpenCV's masked means, affine transform and moments instead of numpy's boolean indexing,
-    # matrix product and sums: the same figures (to float rounding) in a fifth of the time
-    patch = image[lo[1]:hi[1], lo[0]:hi[0]]
-    fg = np.array(cv2.mean(patch, mask=inner)[:3])
-    bg = np.array(cv2.mean(patch, mask=ring)[:3])
-    span = fg - bg
-    n2 = float(span @ span)
+    # matrix product and sums: the same figures (to float rounding) in a fifth of the time; the
+    # three-element sums in Python floats (numpy's small-array calls cost more than the sums)
+    patch = image[y0:y1, x0:x1]
+    f0, f1, f2, _ = cv2.mean(patch, mask=inner)
+    b0, b1, b2, _ = cv2.mean(patch, mask=ring)
+    s0, s1, s2 = f0 - b0, f1 - b1, f2 - b2
+    n2 = s0 * s0 + s1 * s1 + s2 * s2
     if n2 < 20.0 ** 2:
-        return area_centre
+        return area_centre()
     # w = (pixel − bg)·span / |span|², clipped to 0…1: 1 inside, 0 outside ``near``
-    w = cv2.transform(patch.astype(np.float32), (np.append(span, -float(bg @ span)) / n2).reshape(1, 4))
+    w = cv2.transform(patch.astype(np.float32),
+                      np.array([[s0 / n2, s1 / n2, s2 / n2, -(b0 * s0 + b1 * s1 + b2 * s2) / n2]]))
     np.clip(w, 0.0, 1.0, out=w)
     w[near == 0] = 0.0
     w[inner > 0] = 1.0
     m = cv2.moments(w)
     if m["m00"] <= 0:
-        return area_centre
-    return (float(lo[0] + m["m10"] / m["m00"]), float(lo[1] + m["m01"] / m["m00"]))
+        return area_centre()
+    return (float(x0 + m["m10"] / m["m00"]), float(y0 + m["m01"] / m["m00"]))
 
 
 def _point(p) -> tuple[float, float, float]:
@@ -742,9 +747,12 @@ class StereoObjectPerception:
     def _merge_fragments(self, side: str, t: float, dets: list[Detection]) -> list[Detection]:
         """Per live track (oldest first): same-label blobs inside its predicted box whose union still
         fits its size (``MERGE_SLACK``) become one detection (``merge_detections``)."""
+        counts = collections.Counter((d.kind, d.label) for d in dets if d.contour is not None)
+        if not counts or max(counts.values()) < 2:
+            return dets  # no label has two blobs here: nothing to merge (the usual frame)
         tracks = sorted(self.live_tracks(), key=lambda tr: (not tr.confirmed, -tr.frames))
         for track in tracks:
-            if not track.extent[side]:
+            if not track.extent[side] or counts[(track.kind, track.label)] < 2:
                 continue
             pb = track.predicted_box(side, t)
             if pb is None:
