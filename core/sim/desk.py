@@ -69,6 +69,8 @@ WALL_COLOUR = (150, 155, 158)  # above the horizon (only with rigs that look tha
 SUPERSAMPLE = 4  # marker patches are warped at 4× and area-averaged (anti-aliased edges)
 THING_CACHE = 256  # still things' items (per view) and shadows kept (SimDesk._cached_thing_item)
 MARKER_PATCH_CACHE = 32  # warped marker patches kept for markers that lie still (SimDesk._composite_marker)
+SHADOW_CACHE = 64  # per view: blurred patches of still shadow groups, projections of still shadows (_draw_shadows)
+AA_MARGIN_PX = 2  # an anti-aliased fill or line changes pixels at most this far outside its outline's bounds
 MARKER_PX_PER_CELL = 16  # marker texture resolution (8 cells + white border → 160 px wide)
 MARKER_BORDER_CELLS = 1.0  # white quiet zone around the black border, in marker cells
 MARKER_BLACK = 28  # printed black and paper white, 8-bit levels before the camera LUT
@@ -364,6 +366,29 @@ class _Shape:
         cv2.fillPoly(img, [self.fixed], self.colour, lineType=cv2.LINE_AA, shift=4)
 
 
+def _merge_boxes(boxes: list, pad: int, w: int, h: int) -> list:
+    """``boxes`` grown by ``pad`` and clipped to a w×h image, empty ones dropped, two that overlap
+    merged into their bounding box when that is no larger than both (fewer, not much larger boxes)."""
+    out: list = []
+    for x0, y0, x1, y1 in boxes:
+        b = (max(x0 - pad, 0), max(y0 - pad, 0), min(x1 + pad, w), min(y1 + pad, h))
+        if b[0] >= b[2] or b[1] >= b[3]:
+            continue
+        merged = True
+        while merged:
+            merged = False
+            for i, o in enumerate(out):
+                if o[0] < b[2] and b[0] < o[2] and o[1] < b[3] and b[1] < o[3]:
+                    u = (min(o[0], b[0]), min(o[1], b[1]), max(o[2], b[2]), max(o[3], b[3]))
+                    if (u[2] - u[0]) * (u[3] - u[1]) <= (o[2] - o[0]) * (o[3] - o[1]) + (b[2] - b[0]) * (b[3] - b[1]):
+                        b = u
+                        del out[i]
+                        merged = True
+                        break
+        out.append(b)
+    return out
+
+
 @dataclass
 class _Item:
     """One thing to paint, with what it hides (shapes) and what it is (truth target)."""
@@ -382,6 +407,45 @@ class _Item:
     flat: bool = False  # lies on the desk: painted before the shadows and every solid item
     # what it covers, as SimDesk._visibility needs it (made on first use; a cached thing's is kept)
     cover: Optional[tuple] = field(default=None, repr=False, compare=False)
+    # the pixels its shapes and lines may change, (x0, y0, x1, y1) or () when unbounded: _item_box
+    box: Optional[tuple] = field(default=None, repr=False, compare=False)
+    line_fixed: Optional[list] = field(default=None, repr=False, compare=False)  # lines' points in 1/16 px
+    # [corner bounds x0, y0, x1, y1; region box] of its target, as SimDesk._visibility needs them
+    target_bounds: Optional[list] = field(default=None, repr=False, compare=False)
+    # a still thing's item (drawn again every frame) keeps the pixels under its box before and after
+    # its shapes and lines were painted, (image shape, before, after): painted over the same pixels
+    # again, it pastes them (SimDesk._paint_shapes)
+    keep_pixels: bool = field(default=False, repr=False, compare=False)
+    kept: Optional[tuple] = field(default=None, repr=False, compare=False)
+
+
+FIXED_LIMIT = 1 << 26  # fillPoly coordinates (1/16 px) beyond this: no bound is taken (NaN, near the near plane)
+
+
+def _item_box(it: _Item) -> tuple:
+    """The box of the pixels ``it``'s shapes and lines may change (made once per item, with their
+    fixed-point outlines), () when unbounded; its marker and textures report their own boxes."""
+    if it.box is None:
+        for sh in it.shapes:
+            if sh.fixed is None:
+                sh.fixed = np.round(sh.pts * 16.0).astype(np.int32)
+        if it.line_fixed is None:
+            it.line_fixed = [np.round(pts * 16.0).astype(np.int32) for pts, _, _ in it.lines]
+        x0 = y0 = FIXED_LIMIT
+        x1 = y1 = -FIXED_LIMIT
+        for f in [sh.fixed for sh in it.shapes] + it.line_fixed:
+            if len(f) == 0:
+                continue
+            bx, by, bw, bh = cv2.boundingRect(f)
+            x0, y0, x1, y1 = min(x0, bx), min(y0, by), max(x1, bx + bw - 1), max(y1, by + bh - 1)
+        if x1 < x0:
+            it.box = (0, 0, 0, 0)  # nothing to paint
+        elif x0 <= -FIXED_LIMIT or y0 <= -FIXED_LIMIT or x1 >= FIXED_LIMIT or y1 >= FIXED_LIMIT:
+            it.box = ()
+        else:  # floor and ceil of the outline's pixel bounds, and the anti-aliasing's reach
+            it.box = ((x0 >> 4) - AA_MARGIN_PX, (y0 >> 4) - AA_MARGIN_PX,
+                      -(-x1 >> 4) + AA_MARGIN_PX + 1, -(-y1 >> 4) + AA_MARGIN_PX + 1)
+    return it.box
 
 
 def _fill(img: np.ndarray, pts: np.ndarray, colour, aa: bool = True) -> None:
@@ -459,6 +523,9 @@ class _View:
         sky = ray_z[0] * uu + ray_z[1] * vv + ray_z[2] > -1e-3
         if np.any(sky):
             self.desk[sky] = WALL_COLOUR
+        self.finished_desk: Optional[tuple] = None  # (settings key, desk after LUT and blur): SimDesk._finish_boxes
+        self.shadow_patches: dict = {}  # still shadow groups' blurred patches: SimDesk._draw_shadows
+        self.shadow_px: dict = {}  # still things' shadow polygons' projections and boxes: SimDesk._draw_shadows
 
     @classmethod
     def from_pose(cls, base_T_camera: np.ndarray, K: np.ndarray, size: tuple[int, int], seed: int,
@@ -486,6 +553,9 @@ class _View:
         if np.any(corners @ ray_z > -1e-3):  # (a camera looking down, the usual case, skips this)
             uu, vv = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
             self.desk[ray_z[0] * uu + ray_z[1] * vv + ray_z[2] > -1e-3] = WALL_COLOUR
+        self.finished_desk = None
+        self.shadow_patches = {}
+        self.shadow_px = {}
         return self
 
     def plane_homography(self, z: float) -> np.ndarray:
@@ -874,6 +944,19 @@ class SimDesk:
             if len(cache) >= THING_CACHE:
                 cache.clear()  # things that moved: their old items will not come back
             item = cache[th] = self._thing_item(view, th)
+            item.keep_pixels = True
+        return item
+
+    def _cached_card_item(self, view: _View, card: Card) -> _Item:
+        """``_card_item``, made once per rig view and card (a card lying still: the objects scene's)."""
+        cache = self._thing_items.get(id(view))
+        if cache is None:
+            return self._card_item(view, card)
+        item = cache.get(card)
+        if item is None:
+            if len(cache) >= THING_CACHE:
+                cache.clear()
+            item = cache[card] = self._card_item(view, card)
         return item
 
     def _thing_item(self, view: _View, th: Thing) -> _Item:
@@ -1075,6 +1158,7 @@ class SimDesk:
                 if len(self._thing_shadows) >= THING_CACHE:
                     self._thing_shadows.clear()
                 shadow = self._thing_shadows[th] = self._thing_shadow(th, on_desk)
+                shadow.setflags(write=False)  # kept: its projection in each view is kept too (_draw_shadows)
             polys.append(shadow)
         for panel in st.panels:  # the plate (the buttons' shadows fall on it and are left out)
             hw, hl = panel.width_m / 2, panel.length_m / 2
@@ -1148,7 +1232,7 @@ class SimDesk:
                 plate = self._tool_plate_item(view, arm)
                 if plate is not None:
                     solid.append(plate)
-        flat += [self._card_item(view, c) for c in st.cards]
+        flat += [self._cached_card_item(view, c) for c in st.cards]
         solid += [self._cup_item(view, c) for c in st.cups]
         if st.ball is not None:
             ball_cup = next((c for c in st.cups if c.lift > 0.001), None) if st.cups else None
@@ -1182,25 +1266,31 @@ class SimDesk:
         for it in items:
             if it.cover is None:
                 polys = self._silhouettes(it) if it.occluder else []
-                bounded = [(pts, pts.min(axis=0), pts.max(axis=0)) for pts in polys]
-                if bounded:
-                    lo = np.min([b[1] for b in bounded], axis=0)
-                    hi = np.max([b[2] for b in bounded], axis=0)
-                    it.cover = ((bounded, lo, hi),)
+                if polys:
+                    # the bounds of them all as Python floats (NaN wins, as in numpy's min); each
+                    # polygon's own bounds only when a target lies within them all
+                    allp = polys[0] if len(polys) == 1 else np.concatenate(polys)
+                    it.cover = ([polys, tuple(allp.min(axis=0).tolist()), tuple(allp.max(axis=0).tolist()), None],)
                 else:
                     it.cover = (None,)
             covers.append(it.cover[0])
         for idx, it in enumerate(items):
             if it.target is None:
                 continue
-            c = it.target_corners
-            if not (np.all(c[:, 0] >= m) and np.all(c[:, 0] <= w - 1 - m)
-                    and np.all(c[:, 1] >= m) and np.all(c[:, 1] <= h - 1 - m)):
+            bounds = it.target_bounds  # (kept: a still thing's item is asked again every frame)
+            if bounds is None:
+                c = it.target_corners
+                bounds = it.target_bounds = [c.min(axis=0).tolist() + c.max(axis=0).tolist(), None]
+            cx0, cy0, cx1, cy1 = bounds[0]
+            if not (cx0 >= m and cx1 <= w - 1 - m and cy0 >= m and cy1 <= h - 1 - m):  # (NaN: not inside)
                 out[it.target] = False
                 continue
             reg = it.target_region
-            x0, y0 = np.floor(reg.min(axis=0)).astype(int) - 1
-            x1, y1 = np.ceil(reg.max(axis=0)).astype(int) + 2
+            if bounds[1] is None:
+                rx0, ry0 = np.floor(reg.min(axis=0)).astype(int) - 1
+                rx1, ry1 = np.ceil(reg.max(axis=0)).astype(int) + 2
+                bounds[1] = (int(rx0), int(ry0), int(rx1), int(ry1))
+            x0, y0, x1, y1 = bounds[1]
             x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
             origin = np.array([x0, y0], dtype=float)
             target = None
@@ -1208,9 +1298,12 @@ class SimDesk:
             for later in covers[idx + 1:]:
                 if later is None:
                     continue
-                bounded, lo, hi = later
+                polys, lo, hi, bounded = later
                 if hi[0] < x0 or lo[0] > x1 or hi[1] < y0 or lo[1] > y1:
                     continue
+                if bounded is None:
+                    bounded = later[3] = [(pts, tuple(pts.min(axis=0).tolist()), tuple(pts.max(axis=0).tolist()))
+                                          for pts in polys]
                 for pts, lo, hi in bounded:  # a card on top of another card hides it too
                     if hi[0] < x0 or lo[0] > x1 or hi[1] < y0 or lo[1] > y1:
                         continue
@@ -1328,7 +1421,7 @@ class SimDesk:
 
     # -- drawing -----------------------------------------------------------------------------
 
-    def _composite_marker(self, img: np.ndarray, marker: tuple) -> None:
+    def _composite_marker(self, img: np.ndarray, marker: tuple) -> Optional[tuple]:
         """A marker's paper over ``img``. Its warped patch is kept while its homography and outline
         stay the same to the bit (a marker lying still before a still camera): the warp at 4× was
         most of a still desk's drawing time, the blend that remains is a few small 8-bit ops."""
@@ -1341,13 +1434,14 @@ class SimDesk:
             if len(cache) >= MARKER_PATCH_CACHE:
                 cache.clear()  # markers that moved: their old patches will not come back
             cache[key] = patch
-        self._blend(img, patch)
+        return self._blend(img, patch)
 
     @staticmethod
-    def _composite(img: np.ndarray, tex: np.ndarray, H: np.ndarray, paper_px: np.ndarray, S: int) -> None:
+    def _composite(img: np.ndarray, tex: np.ndarray, H: np.ndarray, paper_px: np.ndarray, S: int) -> Optional[tuple]:
         """Paint premultiplied BGRA ``tex`` (texel → image px homography ``H``) over ``img`` inside
-        the bounding box of ``paper_px``, warped at S× and area-averaged (anti-aliased edges)."""
-        SimDesk._blend(img, SimDesk._warp_patch(img.shape, tex, H, paper_px, S))
+        the bounding box of ``paper_px``, warped at S× and area-averaged (anti-aliased edges).
+        Returns the box painted (as ``_blend``)."""
+        return SimDesk._blend(img, SimDesk._warp_patch(img.shape, tex, H, paper_px, S))
 
     @staticmethod
     def _warp_patch(shape: tuple, tex: np.ndarray, H: np.ndarray, paper_px: np.ndarray, S: int) -> Optional[tuple]:
@@ -1368,89 +1462,228 @@ class SimDesk:
         return int(x0), int(y0), np.ascontiguousarray(small[..., :3]), cv2.merge([keep, keep, keep])
 
     @staticmethod
-    def _blend(img: np.ndarray, patch: Optional[tuple]) -> None:
-        """Premultiplied "over" of a ``_warp_patch`` patch: roi · (1 − α) + colour·α, in 8-bit ops (±1 level)."""
+    def _blend(img: np.ndarray, patch: Optional[tuple]) -> Optional[tuple]:
+        """Premultiplied "over" of a ``_warp_patch`` patch: roi · (1 − α) + colour·α, in 8-bit ops (±1 level).
+        Returns the patch's box (x0, y0, x1, y1), or None when there was none."""
         if patch is None:
-            return
+            return None
         x0, y0, colour, keep3 = patch
         roi = img[y0:y0 + colour.shape[0], x0:x0 + colour.shape[1]]
         cv2.multiply(roi, keep3, dst=roi, scale=1.0 / 255.0)
         cv2.add(roi, colour, dst=roi)
+        return x0, y0, x0 + colour.shape[1], y0 + colour.shape[0]
 
-    def _draw_shadows(self, img: np.ndarray, view: _View, polys3: list) -> None:
+    def _draw_shadows(self, img: np.ndarray, view: _View, polys3: list, dirty: list) -> None:
+        """Darken ``img`` under the shadows ``polys3`` (robot_base polygons on the desk): a mask of
+        the filled polygons, blurred, multiplied in; the boxes darkened are appended to ``dirty``.
+
+        Shadows are masked and blurred in groups whose boxes (bounds + the blur's reach) do not
+        overlap: a pixel sees only its own group's polygons within the blur's reach, so the result
+        is that of one mask over them all, without blurring the empty desk between them. A group
+        that lies still (same polygons to the bit: the objects scene's still things) keeps its
+        blurred patch — per view, at most SHADOW_CACHE of them."""
         if not polys3:
             return
         h_img, w_img = img.shape[:2]
-        polys = [p for p in (view.project_polygon(q) for q in polys3) if p is not None]
-        if not polys:
-            return
-        allp = np.vstack(polys)
         pad = int(3 * SHADOW_BLUR_PX) + 2
-        x0, y0 = np.floor(allp.min(axis=0)).astype(int) - pad
-        x1, y1 = np.ceil(allp.max(axis=0)).astype(int) + pad
-        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
-        if x1 <= x0 or y1 <= y0:
-            return
-        mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        origin = np.array([x0, y0], dtype=float)
-        level = int(round(255 * SHADOW_DARKNESS))
-        for p in polys:
-            _fill(mask, p - origin, level)
-        mask = cv2.GaussianBlur(mask, (0, 0), SHADOW_BLUR_PX)
-        light = cv2.merge([cv2.subtract(255, mask)] * 3)
-        roi = img[y0:y1, x0:x1]
-        cv2.multiply(roi, light, dst=roi, scale=1.0 / 255.0)
 
-    def _draw(self, view: _View, items: list, shadows3: list) -> np.ndarray:
+        def projected(q: np.ndarray) -> tuple:
+            p = view.project_polygon(q)
+            if p is None:
+                return None, None
+            (x0, y0), (x1, y1) = p.min(axis=0).tolist(), p.max(axis=0).tolist()
+            if not all(map(math.isfinite, (x0, y0, x1, y1))):
+                return p, (0, 0, w_img, h_img)
+            return p, (max(math.floor(x0) - pad, 0), max(math.floor(y0) - pad, 0),
+                       min(math.ceil(x1) + pad, w_img), min(math.ceil(y1) + pad, h_img))
+
+        kept = view.shadow_px  # id → (a kept read-only polygon, its projection, its box)
+        polys, boxes = [], []
+        for q in polys3:
+            hit = kept.get(id(q)) if not q.flags.writeable else None
+            if hit is not None and hit[0] is q:
+                p, box = hit[1:]
+            else:
+                p, box = projected(q)
+                if not q.flags.writeable:
+                    if len(kept) >= SHADOW_CACHE:
+                        kept.clear()
+                    kept[id(q)] = (q, p, box)  # (holding q keeps its id from being reused)
+            if p is not None:
+                polys.append(p)
+                boxes.append(box)
+        groups: list = []  # [box, indices of its polygons]
+        for i, box in enumerate(boxes):
+            if box[2] <= box[0] or box[3] <= box[1]:
+                continue  # off the image: nothing of it (nor of its blur) shows
+            members = [i]
+            merged = True
+            while merged:
+                merged = False
+                for g, (o, idx) in enumerate(groups):
+                    if o[0] < box[2] and box[0] < o[2] and o[1] < box[3] and box[1] < o[3]:
+                        box = (min(o[0], box[0]), min(o[1], box[1]), max(o[2], box[2]), max(o[3], box[3]))
+                        members = idx + members
+                        del groups[g]
+                        merged = True
+                        break
+            groups.append((box, members))
+        cache = view.shadow_patches
+        level = int(round(255 * SHADOW_DARKNESS))
+        for (x0, y0, x1, y1), members in groups:
+            members.sort()  # painted in the order of polys3, as into one mask
+            key = (x0, y0, x1, y1, b"".join(polys[i].tobytes() + b"|" for i in members))
+            light = cache.get(key)
+            if light is None:
+                mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+                origin = np.array([x0, y0], dtype=float)
+                for i in members:
+                    _fill(mask, polys[i] - origin, level)
+                mask = cv2.GaussianBlur(mask, (0, 0), SHADOW_BLUR_PX)
+                light = cv2.merge([cv2.subtract(255, mask)] * 3)
+                if len(cache) >= SHADOW_CACHE:
+                    cache.clear()  # groups that moved: their old patches will not come back
+                cache[key] = light
+            roi = img[y0:y1, x0:x1]
+            cv2.multiply(roi, light, dst=roi, scale=1.0 / 255.0)
+            dirty.append((x0, y0, x1, y1))
+
+    @staticmethod
+    def _paint_shapes(img: np.ndarray, it: _Item) -> tuple:
+        """Paint ``it``'s shapes, then its lines; returns ``_item_box(it)``. An item that keeps its
+        pixels and finds the same pixels under its box as last time pastes last time's result
+        (the same bytes: painting is a function of what lies under it)."""
+        box = _item_box(it)
+        roi = before = None
+        if it.keep_pixels and box:
+            h, w = img.shape[:2]
+            x0, y0, x1, y1 = max(box[0], 0), max(box[1], 0), min(box[2], w), min(box[3], h)
+            if x1 <= x0 or y1 <= y0:
+                return box  # off the image
+            roi = img[y0:y1, x0:x1]
+            kept = it.kept
+            if kept is not None and kept[0] == img.shape and np.array_equal(kept[1], roi):
+                roi[...] = kept[2]
+                return box
+            before = roi.copy()
+        for sh in it.shapes:
+            sh.fill(img)
+        for (_, colour, closed), fixed in zip(it.lines, it.line_fixed):
+            cv2.polylines(img, [fixed], closed, colour, 1, lineType=cv2.LINE_AA, shift=4)
+        if roi is not None:
+            it.kept = (img.shape, before, roi.copy())
+        return box
+
+    def _draw(self, view: _View, items: list, shadows3: list) -> tuple[np.ndarray, Optional[list]]:
+        """The view's desk with ``items`` painted (and the shadows after the flat ones), and the
+        boxes (x0, y0, x1, y1) outside which it is still the bare desk (None: no such bound)."""
         img = view.desk.copy()
+        dirty: list = []
+        bounded = True
         n_flat = sum(1 for it in items if it.flat)
         for idx, it in enumerate(items):
             if idx == n_flat:
-                self._draw_shadows(img, view, shadows3)
-            for sh in it.shapes:
-                sh.fill(img)
-            for pts, colour, closed in it.lines:
-                cv2.polylines(img, [np.round(pts * 16.0).astype(np.int32)], closed, colour, 1,
-                              lineType=cv2.LINE_AA, shift=4)
+                self._draw_shadows(img, view, shadows3, dirty)
+            if it.shapes or it.lines:
+                box = self._paint_shapes(img, it)
+                if box:
+                    dirty.append(box)
+                else:
+                    bounded = False
             if it.marker is not None:
-                self._composite_marker(img, it.marker)
+                box = self._composite_marker(img, it.marker)
+                if box is not None:
+                    dirty.append(box)
             for tex, H, outline_px, supersample in it.textures:
-                self._composite(img, tex, H, outline_px, supersample)
+                box = self._composite(img, tex, H, outline_px, supersample)
+                if box is not None:
+                    dirty.append(box)
         if n_flat == len(items):
-            self._draw_shadows(img, view, shadows3)
-        return img
+            self._draw_shadows(img, view, shadows3, dirty)
+        return img, dirty if bounded else None
 
-    def _finish(self, img: np.ndarray, t: float, side_index: int) -> np.ndarray:
-        """Camera controls (LUT), lens blur and sensor noise, seeded by (seed, t, side)."""
-        if self._lut is not None:
-            cv2.LUT(img, self._lut, dst=img)
-        if self.blur_sigma_px > 0:
-            img = cv2.GaussianBlur(img, self._blur_ksize, self.blur_sigma_px)
+    def _finish(self, img: np.ndarray, t: float, side_index: int, view: Optional[_View] = None,
+                dirty: Optional[list] = None) -> np.ndarray:
+        """Camera controls (LUT), lens blur and sensor noise, seeded by (seed, t, side).
+
+        With a rig ``view`` and the ``dirty`` boxes of ``_draw`` (outside them ``img`` is the view's
+        bare desk), only the boxes (and the blur's reach round them) are looked up and blurred; the
+        rest comes from the view's bare desk finished once per camera setting — the same pixels as
+        finishing the whole image (a pixel's blur reads only its neighbours within the kernel)."""
+        blur = self.blur_sigma_px > 0
+        h, w = img.shape[:2]
         sigma = self.effective_noise_sigma
+        noise = None
         if sigma > 0:
             # luma noise (one value per pixel, all channels), like a webcam after its chroma
             # denoiser: a window of a larger noise field drawn once per σ and image size, at an
             # offset chosen by (seed, t, side) — 4096 different frames, no per-frame randn
             # (that was 0.65 of the 1.1 ms a view spent in blur and noise)
-            h, w = img.shape[:2]
-            field = self._noise_field(h, w, sigma)
+            up, down = self._noise_field(h, w, sigma)
             key = zlib.crc32(struct.pack("<qdq", self.seed, float(t), side_index))
             dy, dx = key % NOISE_SHIFTS, (key // NOISE_SHIFTS) % NOISE_SHIFTS
-            img = cv2.add(img, field[dy:dy + h, dx:dx + w], dtype=cv2.CV_8U)
+            noise = (up[dy:dy + h, dx:dx + w], down[dy:dy + h, dx:dx + w])
+        if view is not None and dirty is not None and (blur or self._lut is not None):
+            return self._finish_boxes(img, view, dirty, noise)
+        if self._lut is not None:
+            cv2.LUT(img, self._lut, dst=img)
+        if blur:
+            img = cv2.GaussianBlur(img, self._blur_ksize, self.blur_sigma_px)
+        if noise is not None:
+            # img + noise saturated to 0…255, as two 8-bit ops: a pixel's noise is in only one of the
+            # two fields (the other is 0), so it saturates once, exactly like the int16 sum; the
+            # mixed uint8 + int16 add took 4× as long
+            cv2.add(img, noise[0], dst=img)  # img is this render's own (drawn or blurred)
+            cv2.subtract(img, noise[1], dst=img)
         return img
 
-    def _noise_field(self, h: int, w: int, sigma: float) -> np.ndarray:
-        """Rounded Gaussian luma noise (int16, 3 equal channels), NOISE_SHIFTS larger than an image
-        each way; made again when σ or the image size changes."""
+    def _finish_boxes(self, img: np.ndarray, view: _View, dirty: list, noise: Optional[tuple]) -> np.ndarray:
+        """LUT and blur of ``img`` (a ``_draw`` of ``view``) done in its ``dirty`` boxes only, over
+        the view's bare desk done once (see ``_finish``), and the ``noise`` windows (up, down)
+        added: a new image."""
+        blur = self.blur_sigma_px > 0
+        lut = self._lut
+        key = (None if lut is None else lut.tobytes(), self._blur_ksize if blur else None, self.blur_sigma_px)
+        cached = view.finished_desk
+        if cached is None or cached[0] != key:
+            bare = view.desk if lut is None else cv2.LUT(view.desk, lut)
+            bare = cv2.GaussianBlur(bare, self._blur_ksize, self.blur_sigma_px) if blur else bare.copy()
+            cached = view.finished_desk = (key, bare)
+        # the noise's positive part goes in with the copy of the finished desk (one pass, not two)
+        out = cached[1].copy() if noise is None else cv2.add(cached[1], noise[0])
+        h, w = img.shape[:2]
+        r = self._blur_ksize[0] // 2 if blur else 0
+        # a changed pixel changes the blur within r of it; those in turn read r further out
+        for x0, y0, x1, y1 in _merge_boxes(dirty, r, w, h):
+            ix0, iy0, ix1, iy1 = max(x0 - r, 0), max(y0 - r, 0), min(x1 + r, w), min(y1 + r, h)
+            sub = img[iy0:iy1, ix0:ix1]
+            if lut is not None:
+                sub = cv2.LUT(sub, lut)
+            if blur:
+                sub = cv2.GaussianBlur(sub, self._blur_ksize, self.blur_sigma_px)
+            inner = sub[y0 - iy0:y1 - iy0, x0 - ix0:x1 - ix0]
+            if noise is None:
+                out[y0:y1, x0:x1] = inner
+            else:
+                cv2.add(inner, noise[0][y0:y1, x0:x1], dst=out[y0:y1, x0:x1])
+        if noise is not None:
+            cv2.subtract(out, noise[1], dst=out)
+        return out
+
+    def _noise_field(self, h: int, w: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+        """Rounded Gaussian luma noise, NOISE_SHIFTS larger than an image each way, as its positive
+        and its negative part (uint8, 3 equal channels; beyond ±255 a pixel saturates anyway); made
+        again when σ or the image size changes."""
         cached = self._noise
         if cached is not None and cached[0] == (h, w, sigma):
             return cached[1]
         noise = np.empty((h + NOISE_SHIFTS, w + NOISE_SHIFTS), np.float32)
         cv2.setRNGSeed(zlib.crc32(struct.pack("<qd", self.seed, sigma)) & 0x7FFFFFFF)
         cv2.randn(noise, 0.0, sigma)
-        field = np.round(cv2.cvtColor(noise, cv2.COLOR_GRAY2BGR)).astype(np.int16)
-        self._noise = ((h, w, sigma), field)
-        return field
+        field = np.clip(np.round(cv2.cvtColor(noise, cv2.COLOR_GRAY2BGR)), -255, 255).astype(np.int16)
+        parts = (np.maximum(field, 0).astype(np.uint8), np.maximum(-field, 0).astype(np.uint8))
+        self._noise = ((h, w, sigma), parts)
+        return parts
 
     @staticmethod
     def _check_arm(arm_points) -> Optional[np.ndarray]:
@@ -1482,7 +1715,8 @@ class SimDesk:
         for i, side in enumerate(SIDES):
             view = self._views[side]
             layouts[side] = items = self._layout(view, st, arm)
-            images.append(self._finish(self._draw(view, items, shadows3), t, i))
+            img, dirty = self._draw(view, items, shadows3)
+            images.append(self._finish(img, t, i, view, dirty))
         return images[0], images[1], self._truth(st, layouts)
 
     def render_camera(self, base_T_camera: np.ndarray, K: np.ndarray, size: tuple[int, int], t: float,
@@ -1515,7 +1749,7 @@ class SimDesk:
             if it.marker is not None and cap < SUPERSAMPLE:
                 it.textures.insert(0, (self._textures[(it.marker[0], it.marker[3])], it.marker[1], it.marker[2], cap))
                 it.marker = None
-        image = self._finish(self._draw(view, items, self._shadow_polygons(st, None)), t, noise_index)
+        image = self._finish(self._draw(view, items, self._shadow_polygons(st, None))[0], t, noise_index)
         if not boxes:
             return image, None
         names = {key: (label, kind) for key, _, label, kind in self._truth_entries(st)}

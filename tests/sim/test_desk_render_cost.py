@@ -1,0 +1,205 @@
+"""The simulated desk's cheaper drawing gives the same pictures (issue 28: the Pi 4 budget).
+
+A render finishes (camera LUT, lens blur) only the boxes where something was painted over the
+bare desk, masks and blurs shadows in groups (a still group keeps its blurred patch), pastes a
+still thing's pixels when they were painted over the same background before, and adds the noise
+as two 8-bit fields. Each of these is checked here against the plain way of doing it, to the bit.
+"""
+import struct
+import zlib
+
+import cv2
+import numpy as np
+import pytest
+
+from core.settings import CameraSettings
+from core.sim import desk as desk_module
+from core.sim.desk import SIDES, SimDesk
+from core.sim.rig import SimRig
+
+# base → shoulder → elbow → tool (robot_base, m); moved a little per frame so the arm's shadow moves
+ARM = np.array([(0.0, 0.0, 0.0), (0.0, 0.0, 0.066), (0.0, 0.06, 0.17), (0.0, 0.15, 0.12)])
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return SimRig()
+
+
+def arm_at(k: int) -> np.ndarray:
+    return ARM + np.array([0.004 * k, 0.002 * k, 0.0])
+
+
+def render_plainly(desk: SimDesk, t: float, arm) -> list[np.ndarray]:
+    """``render``'s images with the whole image finished (LUT, blur, noise), as renders were made
+    before the finish learned to do only the painted boxes."""
+    st = desk.scene(t)
+    shadows3 = desk._shadow_polygons(st, arm)
+    images = []
+    for i, side in enumerate(SIDES):
+        view = desk._views[side]
+        img, _ = desk._draw(view, desk._layout(view, st, arm), shadows3)
+        images.append(desk._finish(img, t, i))  # no view, no boxes: the whole image
+    return images
+
+
+def shadows_in_one_mask(img: np.ndarray, view, polys3: list) -> None:
+    """The shadows as one mask over the bounds of them all, blurred at once (the reference)."""
+    h_img, w_img = img.shape[:2]
+    polys = [p for p in (view.project_polygon(q) for q in polys3) if p is not None]
+    if not polys:
+        return
+    allp = np.vstack(polys)
+    pad = int(3 * desk_module.SHADOW_BLUR_PX) + 2
+    x0, y0 = np.floor(allp.min(axis=0)).astype(int) - pad
+    x1, y1 = np.ceil(allp.max(axis=0)).astype(int) + pad
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w_img), min(y1, h_img)
+    if x1 <= x0 or y1 <= y0:
+        return
+    mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    origin = np.array([x0, y0], dtype=float)
+    for p in polys:
+        cv2.fillPoly(mask, [np.round((p - origin) * 16.0).astype(np.int32)],
+                     int(round(255 * desk_module.SHADOW_DARKNESS)), lineType=cv2.LINE_AA, shift=4)
+    mask = cv2.GaussianBlur(mask, (0, 0), desk_module.SHADOW_BLUR_PX)
+    roi = img[y0:y1, x0:x1]
+    cv2.multiply(roi, cv2.merge([cv2.subtract(255, mask)] * 3), dst=roi, scale=1.0 / 255.0)
+
+
+def assert_same_images(got, expected, what):
+    for side, a, b in zip(SIDES, got, expected):
+        diff = int(np.abs(a.astype(int) - b.astype(int)).max())
+        assert diff == 0, f"{what}, {side} view: differs from the plain finish by up to {diff} levels"
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("scenario, times", [
+    ("objects", [5.6 + k / 30 for k in range(4)]),  # the hand over the disc, balls and plush moving
+    ("wander", [11.0 + k / 30 for k in range(4)]),  # markers moving, the hand sweeping across
+    ("panel", [0.0, 1 / 30]),  # textures (the plate, the buttons)
+])
+def test_finishing_only_the_painted_boxes_gives_the_whole_image_finish(rig, scenario, times):
+    desk = SimDesk(rig, scenario=scenario)
+    reference = SimDesk(rig, scenario=scenario)
+    for k, t in enumerate(times):
+        left, right, _ = desk.render(t, arm_at(k))
+        assert_same_images((left, right), render_plainly(reference, t, arm_at(k)), f"{scenario} at t={t:.3f}")
+
+
+@pytest.mark.parametrize("options, settings", [
+    (dict(blur_sigma_px=1.7, noise_sigma=6.0), CameraSettings()),  # a wider kernel: a wider reach
+    (dict(), CameraSettings(exposure=0.8, gain=6.0, brightness=-10.0, contrast=1.4)),  # with the LUT
+    (dict(blur_sigma_px=0.0), CameraSettings(contrast=1.5)),  # the LUT alone
+])
+def test_the_box_finish_holds_for_other_blurs_and_camera_settings(rig, options, settings):
+    desk = SimDesk(rig, scenario="objects", **options)
+    reference = SimDesk(rig, scenario="objects", **options)
+    for d in (desk, reference):
+        d.set_camera_settings(settings)
+    for k, t in enumerate([5.6, 5.6 + 1 / 30]):
+        left, right, _ = desk.render(t, arm_at(k))
+        assert_same_images((left, right), render_plainly(reference, t, arm_at(k)), f"{options} {settings}")
+    desk.set_camera_settings(CameraSettings())  # the finished bare desk follows a change of settings
+    reference.set_camera_settings(CameraSettings())
+    left, right, _ = desk.render(6.0, ARM)
+    assert_same_images((left, right), render_plainly(reference, 6.0, ARM), "back to the default settings")
+
+
+def test_noise_as_two_8_bit_fields_equals_the_saturating_int16_sum(rig):
+    """Noise large enough to saturate both ways and to pass ±255 (gain 24 dB, contrast 3)."""
+    desk = SimDesk(rig, scenario="static", blur_sigma_px=0.0, noise_sigma=30.0, seed=5)
+    desk.set_camera_settings(CameraSettings(gain=24.0, contrast=3.0))
+    w, h = rig.size
+    img = np.random.default_rng(1).integers(0, 256, (h, w, 3), dtype=np.uint8)
+    img[:40] = 0
+    img[40:80] = 255
+    sigma = desk.effective_noise_sigma
+    assert sigma > 255
+    # the int16 field and its mixed-type add, as the desk drew its noise before
+    noise = np.empty((h + desk_module.NOISE_SHIFTS, w + desk_module.NOISE_SHIFTS), np.float32)
+    cv2.setRNGSeed(zlib.crc32(struct.pack("<qd", desk.seed, sigma)) & 0x7FFFFFFF)
+    cv2.randn(noise, 0.0, sigma)
+    field = np.round(cv2.cvtColor(noise, cv2.COLOR_GRAY2BGR)).astype(np.int16)
+    for t, side in [(0.0, 0), (1.25, 1), (7.5, 2)]:
+        key = zlib.crc32(struct.pack("<qdq", desk.seed, t, side))
+        dy, dx = key % desk_module.NOISE_SHIFTS, (key // desk_module.NOISE_SHIFTS) % desk_module.NOISE_SHIFTS
+        expected = cv2.add(cv2.LUT(img, desk._lut), field[dy:dy + h, dx:dx + w], dtype=cv2.CV_8U)
+        got = desk._finish(img.copy(), t, side)
+        assert np.array_equal(got, expected), f"t={t} side={side}: up to {np.abs(got.astype(int) - expected).max()} levels off"
+
+
+def test_grouped_shadows_equal_one_mask_over_all_of_them_and_still_groups_are_kept(rig):
+    desk = SimDesk(rig, scenario="objects")
+    view = desk._views["left"]
+    for k, (t, a) in enumerate([(0.0, 0), (0.0, 0), (5.6, 1), (5.6 + 1 / 30, 2), (5.6 + 2 / 30, 3)]):
+        polys3 = desk._shadow_polygons(desk.scene(t), arm_at(a))
+        got, expected = view.desk.copy(), view.desk.copy()
+        patches_before = len(view.shadow_patches)
+        dirty: list = []
+        desk._draw_shadows(got, view, polys3, dirty)
+        shadows_in_one_mask(expected, view, polys3)
+        diff = int(np.abs(got.astype(int) - expected).max())
+        assert diff == 0, f"t={t}: the grouped shadows differ from one mask by up to {diff} levels"
+        assert len(dirty) >= 2  # the shadows fall in several groups (not one box over them all)
+        changed = np.any(got != view.desk, axis=2)
+        inside = np.zeros_like(changed)
+        for x0, y0, x1, y1 in dirty:
+            inside[y0:y1, x0:x1] = True
+        assert not np.any(changed & ~inside), "a shadow darkened a pixel outside the boxes it reported"
+        if k == 1:  # the same scene again: every group's blurred patch was kept
+            assert len(view.shadow_patches) == patches_before
+
+
+def test_a_still_things_pixels_are_pasted_only_over_the_background_they_were_painted_on(rig):
+    desk = SimDesk(rig, scenario="objects")
+    view = desk._views["left"]
+    st = desk.scene(0.0)
+    item = desk._cached_thing_item(view, st.things[1])  # the green ball: still
+    assert item.keep_pixels and item is desk._cached_thing_item(view, st.things[1])
+    plain = view.desk.copy()
+    grey = np.full_like(plain, 90)
+
+    def painted_plainly(background):
+        img = background.copy()
+        for sh in item.shapes:
+            cv2.fillPoly(img, [np.round(sh.pts * 16.0).astype(np.int32)], sh.colour, lineType=cv2.LINE_AA, shift=4)
+        for pts, colour, closed in item.lines:
+            cv2.polylines(img, [np.round(pts * 16.0).astype(np.int32)], closed, colour, 1,
+                          lineType=cv2.LINE_AA, shift=4)
+        return img
+
+    for background in (plain, plain, grey, plain, grey, grey):
+        img = background.copy()
+        box = SimDesk._paint_shapes(img, item)
+        assert np.array_equal(img, painted_plainly(background))
+        changed = np.argwhere(np.any(img != background, axis=2))
+        assert len(changed)
+        (y0, x0), (y1, x1) = changed.min(axis=0), changed.max(axis=0)
+        assert box[0] <= x0 and box[1] <= y0 and x1 < box[2] and y1 < box[3]  # the box holds what it painted
+
+
+@pytest.mark.parametrize("scenario, t0", [("objects", 5.5), ("wander", 11.0), ("cups", 3.0)])
+def test_frame_after_frame_the_renders_equal_a_fresh_desks(rig, scenario, t0):
+    """Whatever the desk keeps from frame to frame (still items' pixels, shadow patches, the
+    finished bare desk, card items), each frame is that of a desk that never rendered before."""
+    desk = SimDesk(rig, scenario=scenario)
+    for k in range(5):
+        t = t0 + k / 30
+        left, right, truth = desk.render(t, arm_at(k))
+        fresh = SimDesk(rig, scenario=scenario).render(t, arm_at(k))
+        assert_same_images((left, right), fresh[:2], f"{scenario} frame {k}")
+        assert truth == fresh[2]
+
+
+def test_render_camera_is_unchanged_by_the_rig_views_caches(rig):
+    """A camera elsewhere (the hand camera's hook) finishes its whole image; the rig views'
+    kept state does not leak into it."""
+    desk = SimDesk(rig, scenario="objects")
+    T = rig.base_T_left.copy()
+    T[0, 3] += 0.04
+    desk.render(5.6, ARM)
+    image, _ = desk.render_camera(T, rig.K, (320, 240), 5.6)
+    again, _ = SimDesk(rig, scenario="objects").render_camera(T, rig.K, (320, 240), 5.6)
+    assert np.array_equal(image, again)
