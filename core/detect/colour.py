@@ -251,9 +251,8 @@ class HsvDetector(BaseDetector):
                 boxes = _merged([(max(int(x * sx) - m, 0), max(int(y * sy) - m, 0),
                                   min(int(math.ceil((x + w) * sx)) + m, w_img), min(int(math.ceil((y + h) * sy)) + m, h_img))
                                  for x, y, w, h in rects])
-                for x0, y0, x1, y1 in boxes:
-                    box_bits = self._bits(cv2.cvtColor(image[y0:y1, x0:x1], cv2.COLOR_BGR2HSV), lut)
-                    _, region = cv2.threshold(cv2.bitwise_and(box_bits, 1 << k), 0, 255, cv2.THRESH_BINARY)
+                for x0, y0, x1, y1 in boxes:  # one colour in a small box: one inRange beats the table
+                    region = colour.mask(cv2.cvtColor(image[y0:y1, x0:x1], cv2.COLOR_BGR2HSV))
                     out.append((colour.name, *self._cleaned(region, x0, y0)))
         return out
 
