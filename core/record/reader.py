@@ -17,6 +17,7 @@ from __future__ import annotations
 import bisect
 import json
 import math
+import struct
 import tempfile
 from collections import deque
 from dataclasses import dataclass, field
@@ -120,7 +121,28 @@ def _typestore():
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
+@dataclass(frozen=True)
+class _Stamp:
+    """Only a message's header stamp: what the scan at open needs of an image (its JPEG is not copied)."""
+    ns: int
+
+
+_CDR_LE = b"\x00\x01"  # the encapsulation of a little-endian plain CDR message
+_CDR_STAMP = struct.Struct("<iI")  # header.stamp (sec, nanosec), the first field after the 4-byte encapsulation
+
+
+def _stamp_of_raw(raw: bytes, msgtype: str, typestore):
+    """A ``_Stamp`` read from a serialised message whose first field is a std_msgs/Header (every
+    image topic's), else the message deserialised in full."""
+    if len(raw) >= 12 and raw[:2] == _CDR_LE:
+        sec, nanosec = _CDR_STAMP.unpack_from(raw, 4)
+        return _Stamp(int(sec) * NS + int(nanosec))
+    return typestore.deserialize_cdr(bytes(raw), msgtype)
+
+
 def _stamp_ns(msg) -> Optional[int]:
+    if isinstance(msg, _Stamp):
+        return msg.ns
     header = getattr(msg, "header", None)
     if header is None:
         return None
@@ -155,13 +177,16 @@ class _RosbagsSource:
         with self._factory() as reader:  # refuses a truncated file here (no footer/summary)
             self.files = [Path(p) for p in getattr(reader, "paths", [folder])]
 
-    def messages(self, topics, start_log_ns: Optional[int] = None) -> Iterator[_Msg]:
+    def messages(self, topics, start_log_ns: Optional[int] = None, stamps_only=()) -> Iterator[_Msg]:
+        """``topics``' messages in log order; those of ``stamps_only`` as their header stamp only."""
         with self._factory() as reader:
             conns = [c for c in reader.connections if c.topic in topics]
             if not conns:
                 return
             for conn, log_ns, raw in reader.messages(connections=conns, start=start_log_ns):
-                yield _Msg(conn.topic, int(log_ns), reader.deserialize(raw, conn.msgtype))
+                msg = (_stamp_of_raw(raw, conn.msgtype, self.typestore) if conn.topic in stamps_only
+                       else reader.deserialize(raw, conn.msgtype))
+                yield _Msg(conn.topic, int(log_ns), msg)
 
 
 class _StreamSource:
@@ -174,7 +199,8 @@ class _StreamSource:
         self.typestore = typestore
         self.breaks: dict[Path, tuple[int, str]] = {}  # file -> (byte after the last whole record, reason)
 
-    def messages(self, topics, start_log_ns: Optional[int] = None) -> Iterator[_Msg]:
+    def messages(self, topics, start_log_ns: Optional[int] = None, stamps_only=()) -> Iterator[_Msg]:
+        """As ``_RosbagsSource.messages``."""
         from mcap.records import Channel, Message, Schema
         from mcap.stream_reader import StreamReader
 
@@ -206,7 +232,8 @@ class _StreamSource:
                         if topic not in topics or (start_log_ns is not None and record.log_time < start_log_ns):
                             continue
                         try:
-                            msg = self.typestore.deserialize_cdr(bytes(record.data), msgtype)
+                            msg = (_stamp_of_raw(record.data, msgtype, self.typestore) if topic in stamps_only
+                                   else self.typestore.deserialize_cdr(bytes(record.data), msgtype))
                         except Exception:  # noqa: BLE001 - one undecodable message is skipped
                             continue
                         yield _Msg(topic, int(record.log_time), msg)
@@ -328,7 +355,7 @@ class Recording:
         self.estops: list[tuple[float, bool]] = []  # (t_s by log time, engaged)
         self.markers: list[tuple[float, dict[int, tuple[float, float, float]]]] = []  # perceived, robot_base
         self._truth_stamps: list[int] = []
-        self._truths: list[GroundTruth] = []
+        self._truths: list = []  # GroundTruth, or the recorded message until it is first asked for
         self._truth_msgs: list[tuple[int, object]] = []
         self._scan()
 
@@ -341,7 +368,7 @@ class Recording:
         logs = []
         last_log = None
         try:
-            for m in self._source.messages(set(SMALL_TOPICS) | set(IMAGE_TOPICS)):
+            for m in self._source.messages(set(SMALL_TOPICS) | set(IMAGE_TOPICS), stamps_only=set(IMAGE_TOPICS)):
                 last_log = m.log_ns
                 logs.append(m.log_ns)
                 self.topics[m.topic] = self.topics.get(m.topic, 0) + 1
@@ -370,9 +397,14 @@ class Recording:
         self._pair_log0 = self._pair_log_ns[0] if self._pair_log_ns else self.start_log_ns
         for m in small:
             self._keep(m)
+        # sorted once, after the scan (sorting after every message made opening quadratic: a
+        # 45 s recording took 7 s to open), with each kind's times kept for joints_at's bisect
+        for rows in self.joints.values():
+            rows.sort(key=lambda r: r.t_s)
+        self._joint_times = {kind: [r.t_s for r in rows] for kind, rows in self.joints.items()}
         for stamp, msg in self._truth_msgs:
             self._truth_stamps.append(stamp)
-            self._truths.append(_truth_of(msg, self.calibration, self.base_T_camera))
+            self._truths.append(msg)  # made into a GroundTruth when asked for (truth_at): 0.5 ms each
         order = np.argsort(self._truth_stamps, kind="stable")
         self._truth_stamps = [self._truth_stamps[i] for i in order]
         self._truths = [self._truths[i] for i in order]
@@ -453,8 +485,6 @@ class Recording:
             for tr in msg.transforms:
                 if tr.child_frame_id == "camera_left":
                     self.base_T_camera = _matrix_of(tr.transform)
-        for rows in self.joints.values():
-            rows.sort(key=lambda r: r.t_s)
 
     # -- what a caller asks ---------------------------------------------------------------------
     @property
@@ -484,12 +514,15 @@ class Recording:
                    key=lambda j: abs(self._truth_stamps[j] - stamp))
         if abs(self._truth_stamps[best] - stamp) > 0.5 * self.frame_period_s * NS:
             return None
-        return self._truths[best]
+        truth = self._truths[best]
+        if not isinstance(truth, GroundTruth):
+            truth = self._truths[best] = _truth_of(truth, self.calibration, self.base_T_camera)
+        return truth
 
     def joints_at(self, t_s: float, kind: str = "measured") -> Optional[RecordedJoints]:
         """The last ``kind`` (measured | commanded) joint state at or before ``t_s``, else None."""
         rows = self.joints[kind]
-        i = bisect.bisect_right([r.t_s for r in rows], t_s + 1e-9)
+        i = bisect.bisect_right(self._joint_times[kind], t_s + 1e-9)
         return rows[i - 1] if i else None
 
     def index_at(self, t_s: float) -> int:

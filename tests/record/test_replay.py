@@ -73,6 +73,25 @@ def test_the_reader_finds_session_calibration_pairs_truth_and_joint_states(recor
     assert rec.joints_at(-1.0) is None
 
 
+def test_the_scan_at_open_reads_image_stamps_as_full_deserialisation_does(recording, monkeypatch):
+    """Opening reads each image's stamp from its CDR bytes (its JPEG is not copied); the pairs,
+    their times and the lazily made ground truth are what deserialising every image gives."""
+    from core.record import reader
+
+    fast = open_recording(recording.path)
+    header = b"\x00\x01\x00\x00" + (7).to_bytes(4, "little") + (250).to_bytes(4, "little")  # stamp 7 s 250 ns
+    assert reader._stamp_of_raw(header, "sensor_msgs/msg/CompressedImage", None) == reader._Stamp(7 * 10**9 + 250)
+    monkeypatch.setattr(reader, "_stamp_of_raw", lambda raw, msgtype, store: store.deserialize_cdr(bytes(raw), msgtype))
+    full = open_recording(recording.path)
+    assert fast._pair_stamps == full._pair_stamps and fast._pair_log_ns == full._pair_log_ns
+    assert fast.pair_times_s == full.pair_times_s and len(fast.pair_times_s) == recording.frames
+    for t_s in fast.pair_times_s[::7]:
+        a, b = fast.truth_at(t_s), full.truth_at(t_s)
+        assert a is fast.truth_at(t_s)  # made once, then kept
+        assert [(o.marker_id, o.base_p_centre) for o in a.objects] == [(o.marker_id, o.base_p_centre) for o in b.objects]
+    assert [r.t_s for r in fast.joints["measured"]] == sorted(r.t_s for r in fast.joints["measured"])
+
+
 def test_another_robot_or_deskarm_version_is_a_warning_not_an_error(tmp_path):
     live = make_recording(tmp_path / "old", seconds=0.3, fps=FPS, deskarm_version="0.0.1")
     rec = open_recording(live.path, robot="umi_rtx")
