@@ -12,7 +12,7 @@ view and uncovered; ``image_boxes`` gives the pixel box of what is visible of it
 
 Geometry is exact: a marker corner at robot_base point P lands at ``rig.project(side, P)``
 (OpenCV's pixel-centre convention, pixel (0, 0) centred at 0.0). Markers are warped from a
-texture into a 4× supersampled patch and area-averaged, so their edges carry sub-pixel coverage.
+texture into a 3× supersampled patch and area-averaged, so their edges carry sub-pixel coverage.
 (ArUco's CORNER_REFINE_CONTOUR puts corners ~0.5 px inside each edge — ~0.75 px along the
 diagonal — on these exact edges; marker centres come out within ~0.1 px.)
 
@@ -66,7 +66,12 @@ DESK_MAX_RANGE_M = 2.0
 DESK_MAX_TEXTURE_PX = 2048
 WALL_COLOUR = (150, 155, 158)  # above the horizon (only with rigs that look that far up)
 
-SUPERSAMPLE = 4  # marker patches are warped at 4× and area-averaged (anti-aliased edges)
+SUPERSAMPLE = 4  # textures (the panel's buttons) are warped at 4× and area-averaged (anti-aliased edges)
+# markers are warped at 3×: a moving marker is warped every frame, and 3× warps 9/16 of 4×'s pixels
+# with the same accuracy (wander, 540 ArUco detections: corners 0.78 px from the truth on average,
+# 0.79 at 4× — the CONTOUR refinement's known inset —, centres 0.038 px at both); 2× moved the
+# corners 0.04 px further out. Edges differ from 4×'s by at most 12 levels.
+MARKER_SUPERSAMPLE = 3
 THING_CACHE = 256  # still things' items (per view) and shadows kept (SimDesk._cached_thing_item)
 MARKER_PATCH_CACHE = 32  # warped marker patches kept for markers that lie still (SimDesk._composite_marker)
 SHADOW_CACHE = 64  # per view: blurred patches of still shadow groups, projections of still shadows (_draw_shadows)
@@ -459,6 +464,10 @@ def _circle(n: int = 32) -> np.ndarray:
 
 
 _CIRCLE32 = _circle(32)
+# an arm link's quads (edge, body, highlight) as (half width ka at a, kb at b, offset off) across the
+# link, in widths: each corner's offset, (off + ka, off + kb, off − kb, off − ka), shape (3, 4, 1)
+_LINK_QUAD_OFFSETS = np.array([[[off + ka], [off + kb], [off - kb], [off - ka]]
+                               for ka, kb, off in ((1.0, 1.0, 0.0), (0.82, 0.82, 0.0), (0.28, 0.28, 0.35))])
 
 
 def _unit_sphere(n_lat: int = 10, n_lon: int = 24) -> np.ndarray:
@@ -632,6 +641,8 @@ class SimDesk:
         # each call: not cached). Keyed by the frozen Thing, so a moved thing is made again.
         self._thing_items: dict[int, dict] = {id(view): {} for view in self._views.values()}
         self._thing_shadows: dict = {}
+        self._arm_items_kept: dict = {}  # id(view) → (arm key, flat items, 3D items): _cached_arm_items
+        self._arm_shadows_kept: Optional[tuple] = None  # (arm bytes, shadow polygons): _shadow_polygons
         self._extent: Optional[tuple] = None  # desk texture extent for render_camera (the rig's, made on first use)
         # the printed square: black marker + white quiet zone (m)
         self._paper_m = self.marker_size_m * (8 + 2 * MARKER_BORDER_CELLS) / 8
@@ -947,6 +958,27 @@ class SimDesk:
             item.keep_pixels = True
         return item
 
+    def _cached_arm_items(self, view: _View, arm: np.ndarray) -> tuple[list, list]:
+        """(flat items, 3D items) of the arm at chain points ``arm`` and the plate it carries; in a
+        rig view made once while the arm stays still (to the bit), and then they keep their pixels
+        (an idle arm over the objects scene was rebuilt and painted anew every frame)."""
+        key = (arm.tobytes(), self.tool_marker)
+        cache = self._arm_items_kept
+        if id(view) in self._thing_items:
+            hit = cache.get(id(view))
+            if hit is not None and hit[0] == key:
+                return hit[1], hit[2]
+        flat, solid = self._arm_items(view, arm)
+        if self.tool_marker is not None:
+            plate = self._tool_plate_item(view, arm)
+            if plate is not None:
+                solid.append(plate)
+        if id(view) in self._thing_items:
+            for it in flat + solid:
+                it.keep_pixels = True
+            cache[id(view)] = (key, flat, solid)
+        return flat, solid
+
     def _cached_card_item(self, view: _View, card: Card) -> _Item:
         """``_card_item``, made once per rig view and card (a card lying still: the objects scene's)."""
         cache = self._thing_items.get(id(view))
@@ -1080,11 +1112,13 @@ class SimDesk:
                 perp = -perp  # perp points towards the light
             r = ARM_LINK_RADII_M[min(i, len(ARM_LINK_RADII_M) - 1)]
             wa, wb = view.f * r / d[i], view.f * r / d[i + 1]
-            quad = lambda ka, kb, off: np.array([a + perp * wa * (off + ka), b + perp * wb * (off + kb),
-                                                  b + perp * wb * (off - kb), a + perp * wa * (off - ka)])
-            shapes = [_Shape(quad(1.0, 1.0, 0.0), ARM_LINK_EDGE),
-                      _Shape(quad(0.82, 0.82, 0.0), ARM_LINK_COLOUR),
-                      _Shape(quad(0.28, 0.28, 0.35), ARM_LINK_HIGHLIGHT)]
+            # the edge, body and highlight quads at once: corner + (perp · width) · offset, the same
+            # operations in the same order per coordinate as one quad at a time
+            ends = np.array([a, b, b, a])
+            reach = np.array([perp * wa, perp * wb, perp * wb, perp * wa])
+            quads = ends + reach * _LINK_QUAD_OFFSETS
+            shapes = [_Shape(quads[0], ARM_LINK_EDGE), _Shape(quads[1], ARM_LINK_COLOUR),
+                      _Shape(quads[2], ARM_LINK_HIGHLIGHT)]
             items.append(_Item(depth=float(d[i] + d[i + 1]) / 2, shapes=shapes))
         last = len(pts3) - 1
         for i in range(1, len(pts3)):
@@ -1180,6 +1214,18 @@ class SimDesk:
             for outline in _HAND_OUTLINES:
                 polys.append(on_desk(self._local_to_base(pose, outline)))
         if arm is not None and len(arm) >= 2:
+            kept = self._arm_shadows_kept
+            if kept is None or kept[0] != arm.tobytes():
+                kept = self._arm_shadows_kept = (arm.tobytes(), self._arm_shadows(arm, on_desk))
+            polys += kept[1]
+        return polys
+
+    @staticmethod
+    def _arm_shadows(arm: np.ndarray, on_desk) -> list:
+        """The arm's shadow polygons (M, 3) on the desk: its links and joints, read-only (kept while
+        the arm stays still, and so are their projections: _draw_shadows)."""
+        polys = []
+        if len(arm) >= 2:
             sh = on_desk(arm)
             for i in range(len(sh) - 1):
                 seg = sh[i + 1, :2] - sh[i, :2]
@@ -1195,6 +1241,8 @@ class SimDesk:
                 r = ARM_TOOL_RADIUS_M if i == len(sh) - 1 else ARM_JOINT_RADIUS_M
                 polys.append(np.column_stack([sh[i, 0] + r * _CIRCLE32[:, 0], sh[i, 1] + r * _CIRCLE32[:, 1],
                                               np.zeros(len(_CIRCLE32))]))
+        for p in polys:
+            p.setflags(write=False)
         return polys
 
     @staticmethod
@@ -1225,13 +1273,9 @@ class SimDesk:
         """Items in painting order: flat things on the desk first, then far to near."""
         flat, solid = [], []
         if arm is not None:
-            f, s = self._arm_items(view, arm)
+            f, s = self._cached_arm_items(view, arm)
             flat += f
             solid += s
-            if self.tool_marker is not None:
-                plate = self._tool_plate_item(view, arm)
-                if plate is not None:
-                    solid.append(plate)
         flat += [self._cached_card_item(view, c) for c in st.cards]
         solid += [self._cup_item(view, c) for c in st.cups]
         if st.ball is not None:
@@ -1423,14 +1467,16 @@ class SimDesk:
 
     def _composite_marker(self, img: np.ndarray, marker: tuple) -> Optional[tuple]:
         """A marker's paper over ``img``. Its warped patch is kept while its homography and outline
-        stay the same to the bit (a marker lying still before a still camera): the warp at 4× was
-        most of a still desk's drawing time, the blend that remains is a few small 8-bit ops."""
+        stay the same to the bit (a marker lying still before a still camera): the supersampled warp
+        was most of a still desk's drawing time, the blend that remains is a few small 8-bit ops."""
         marker_id, H, paper_px, disc = marker
         key = (marker_id, disc, img.shape, np.asarray(H, np.float64).tobytes(), np.asarray(paper_px, np.float64).tobytes())
         cache = self._marker_patches
         patch = cache.get(key)
         if patch is None:
-            patch = self._warp_patch(img.shape, self._textures[(marker_id, disc)], H, paper_px, SUPERSAMPLE)
+            tool = self.tool_marker is not None and marker_id == self.tool_marker[0]
+            S = SUPERSAMPLE if tool else MARKER_SUPERSAMPLE  # (see MARKER_SUPERSAMPLE)
+            patch = self._warp_patch(img.shape, self._textures[(marker_id, disc)], H, paper_px, S)
             if len(cache) >= MARKER_PATCH_CACHE:
                 cache.clear()  # markers that moved: their old patches will not come back
             cache[key] = patch
@@ -1746,7 +1792,7 @@ class SimDesk:
         for it in items:
             if it.textures:
                 it.textures = [(tex, H, outline, min(S, cap)) for tex, H, outline, S in it.textures]
-            if it.marker is not None and cap < SUPERSAMPLE:
+            if it.marker is not None and cap < MARKER_SUPERSAMPLE:
                 it.textures.insert(0, (self._textures[(it.marker[0], it.marker[3])], it.marker[1], it.marker[2], cap))
                 it.marker = None
         image = self._finish(self._draw(view, items, self._shadow_polygons(st, None))[0], t, noise_index)

@@ -2,8 +2,10 @@
 
 A render finishes (camera LUT, lens blur) only the boxes where something was painted over the
 bare desk, masks and blurs shadows in groups (a still group keeps its blurred patch), pastes a
-still thing's pixels when they were painted over the same background before, and adds the noise
-as two 8-bit fields. Each of these is checked here against the plain way of doing it, to the bit.
+still thing's (or an idle arm's) pixels when they were painted over the same background before,
+and adds the noise as two 8-bit fields. Each of these is checked here against the plain way of
+doing it, to the bit. Markers are warped at 3× (the one change in the pictures: the accuracy
+tests in test_simdesk and tests/vision hold), the arm's plate still at 4×.
 """
 import struct
 import zlib
@@ -12,6 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
+from core.handeye import ToolMarker
 from core.settings import CameraSettings
 from core.sim import desk as desk_module
 from core.sim.desk import SIDES, SimDesk
@@ -180,17 +183,51 @@ def test_a_still_things_pixels_are_pasted_only_over_the_background_they_were_pai
         assert box[0] <= x0 and box[1] <= y0 and x1 < box[2] and y1 < box[3]  # the box holds what it painted
 
 
-@pytest.mark.parametrize("scenario, t0", [("objects", 5.5), ("wander", 11.0), ("cups", 3.0)])
-def test_frame_after_frame_the_renders_equal_a_fresh_desks(rig, scenario, t0):
+@pytest.mark.parametrize("scenario, t0, arm_moves", [("objects", 5.5, True), ("objects", 5.5, False),
+                                                    ("wander", 11.0, True), ("cups", 3.0, False)])
+def test_frame_after_frame_the_renders_equal_a_fresh_desks(rig, scenario, t0, arm_moves):
     """Whatever the desk keeps from frame to frame (still items' pixels, shadow patches, the
-    finished bare desk, card items), each frame is that of a desk that never rendered before."""
-    desk = SimDesk(rig, scenario=scenario)
+    finished bare desk, card items, an idle arm's items), each frame is that of a desk that
+    never rendered before."""
+    tool = ToolMarker()  # the default robot's plate
+    desk = SimDesk(rig, scenario=scenario, tool_marker=tool)
     for k in range(5):
         t = t0 + k / 30
-        left, right, truth = desk.render(t, arm_at(k))
-        fresh = SimDesk(rig, scenario=scenario).render(t, arm_at(k))
+        arm = arm_at(k if arm_moves else 0)
+        left, right, truth = desk.render(t, arm)
+        fresh = SimDesk(rig, scenario=scenario, tool_marker=tool).render(t, arm)
         assert_same_images((left, right), fresh[:2], f"{scenario} frame {k}")
         assert truth == fresh[2]
+
+
+def test_an_idle_arms_items_are_made_once_and_kept_while_it_stays_still(rig, monkeypatch):
+    desk = SimDesk(rig, scenario="objects")
+    made, real = [], SimDesk._arm_items
+    monkeypatch.setattr(SimDesk, "_arm_items", lambda self, view, pts: made.append(view.side) or real(self, view, pts))
+    for t in (0.0, 1 / 30, 2 / 30):
+        desk.render(t, ARM)
+    assert sorted(made) == ["left", "right"]  # once per view
+    desk.render(3 / 30, arm_at(1))  # it moved: made again
+    assert len(made) == 4
+
+
+def test_markers_are_warped_at_3x_and_the_tool_plate_at_4x_with_anti_aliased_edges(rig, monkeypatch):
+    """Cards (and cups, wristbands) at MARKER_SUPERSAMPLE: a moving marker is warped every frame;
+    the plate the arm carries — what the hand-eye sweep measures — stays at SUPERSAMPLE."""
+    tool = ToolMarker()  # the default robot's plate
+    desk = SimDesk(rig, scenario="static", tool_marker=tool, blur_sigma_px=0.0, noise_sigma=0.0)
+    warps, real = [], SimDesk._warp_patch
+    monkeypatch.setattr(SimDesk, "_warp_patch", staticmethod(lambda shape, tex, H, paper, S: warps.append(S)
+                                                             or real(shape, tex, H, paper, S)))
+    left, _, _ = desk.render(0.0, ARM)
+    assert desk_module.MARKER_SUPERSAMPLE == 3 and desk_module.SUPERSAMPLE == 4
+    assert sorted(warps) == [3, 3, 3, 3, 4, 4]  # two cards and the plate, in each view
+    # the edges carry coverage: levels between paper white and print black round each card
+    bare = desk._views["left"].desk
+    painted = np.any(left != bare, axis=2)
+    grey = left.astype(int).mean(axis=2)
+    between = painted & (grey > desk_module.MARKER_BLACK + 20) & (grey < desk_module.MARKER_WHITE - 20)
+    assert between.sum() > 50
 
 
 def test_render_camera_is_unchanged_by_the_rig_views_caches(rig):
