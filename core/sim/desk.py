@@ -25,6 +25,7 @@ from __future__ import annotations
 import functools
 import math
 import struct
+import threading
 import zlib
 from dataclasses import dataclass, field
 from typing import Optional, Sequence, Union
@@ -431,26 +432,34 @@ def _item_box(it: _Item) -> tuple:
     """The box of the pixels ``it``'s shapes and lines may change (made once per item, with their
     fixed-point outlines), () when unbounded; its marker and textures report their own boxes."""
     if it.box is None:
-        for sh in it.shapes:
-            if sh.fixed is None:
-                sh.fixed = np.round(sh.pts * 16.0).astype(np.int32)
+        missing = [sh for sh in it.shapes if sh.fixed is None]
+        if missing:  # (rounded all at once: the same values as one outline at a time)
+            fixed = _fixed([sh.pts for sh in missing])
+            for sh, f in zip(missing, fixed):
+                sh.fixed = f
         if it.line_fixed is None:
-            it.line_fixed = [np.round(pts * 16.0).astype(np.int32) for pts, _, _ in it.lines]
-        x0 = y0 = FIXED_LIMIT
-        x1 = y1 = -FIXED_LIMIT
-        for f in [sh.fixed for sh in it.shapes] + it.line_fixed:
-            if len(f) == 0:
-                continue
-            bx, by, bw, bh = cv2.boundingRect(f)
-            x0, y0, x1, y1 = min(x0, bx), min(y0, by), max(x1, bx + bw - 1), max(y1, by + bh - 1)
-        if x1 < x0:
+            it.line_fixed = _fixed([pts for pts, _, _ in it.lines])
+        outlines = [sh.fixed for sh in it.shapes] + it.line_fixed
+        allf = np.concatenate(outlines) if len(outlines) > 1 else outlines[0] if outlines else outlines
+        if len(allf) == 0:
             it.box = (0, 0, 0, 0)  # nothing to paint
-        elif x0 <= -FIXED_LIMIT or y0 <= -FIXED_LIMIT or x1 >= FIXED_LIMIT or y1 >= FIXED_LIMIT:
+            return it.box
+        bx, by, bw, bh = cv2.boundingRect(allf)
+        x0, y0, x1, y1 = bx, by, bx + bw - 1, by + bh - 1
+        if x0 <= -FIXED_LIMIT or y0 <= -FIXED_LIMIT or x1 >= FIXED_LIMIT or y1 >= FIXED_LIMIT or bw < 0 or bh < 0:
             it.box = ()
         else:  # floor and ceil of the outline's pixel bounds, and the anti-aliasing's reach
             it.box = ((x0 >> 4) - AA_MARGIN_PX, (y0 >> 4) - AA_MARGIN_PX,
                       -(-x1 >> 4) + AA_MARGIN_PX + 1, -(-y1 >> 4) + AA_MARGIN_PX + 1)
     return it.box
+
+
+def _fixed(polys: list) -> list:
+    """``polys`` (M_i, 2) px as fillPoly's fixed-point points (1/16 px, int32)."""
+    if len(polys) <= 1:
+        return [np.round(p * 16.0).astype(np.int32) for p in polys]
+    allf = np.round(np.concatenate(polys) * 16.0).astype(np.int32)
+    return np.split(allf, np.cumsum([len(p) for p in polys[:-1]]))
 
 
 def _fill(img: np.ndarray, pts: np.ndarray, colour, aa: bool = True) -> None:
@@ -533,6 +542,11 @@ class _View:
         if np.any(sky):
             self.desk[sky] = WALL_COLOUR
         self.finished_desk: Optional[tuple] = None  # (settings key, desk after LUT and blur): SimDesk._finish_boxes
+        # the image drawn into, kept between frames: where the last frame painted (boxes, None: not
+        # known) the bare desk is put back, instead of copying all of it (SimDesk._draw)
+        self.canvas: Optional[np.ndarray] = None
+        self.canvas_dirty: Optional[list] = None
+        self.canvas_lock = threading.Lock()  # (a render in another thread draws into a copy)
         self.shadow_patches: dict = {}  # still shadow groups' blurred patches: SimDesk._draw_shadows
         self.shadow_px: dict = {}  # still things' shadow polygons' projections and boxes: SimDesk._draw_shadows
 
@@ -563,6 +577,7 @@ class _View:
             uu, vv = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
             self.desk[ray_z[0] * uu + ray_z[1] * vv + ray_z[2] > -1e-3] = WALL_COLOUR
         self.finished_desk = None
+        self.canvas, self.canvas_dirty, self.canvas_lock = None, None, threading.Lock()
         self.shadow_patches = {}
         self.shadow_px = {}
         return self
@@ -795,9 +810,13 @@ class SimDesk:
         c, sn = math.cos(yaw), math.sin(yaw)
         R = np.array([[c, -sn, x], [sn, c, y], [0.0, 0.0, 1.0]])
         H = view.plane_homography(z) @ R @ A
-        paper_px, _ = view.project(self._square(pose, self._paper_m / 2))
-        black_px, _ = view.project(self._square(pose, self.marker_size_m / 2))
-        region_px, _ = view.project(self._square(pose, self.marker_size_m / 2 * (1 + 1 / 8)))
+        # the paper's, the black square's and the target region's corners (as _square's), placed
+        # together and projected one square at a time
+        halves = (self._paper_m / 2, self.marker_size_m / 2, self.marker_size_m / 2 * (1 + 1 / 8))
+        corners = self._local_to_base(pose, np.array([c for h in halves for c in ((-h, h), (h, h), (h, -h), (-h, -h))]))
+        paper_px, _ = view.project(corners[0:4])
+        black_px, _ = view.project(corners[4:8])
+        region_px, _ = view.project(corners[8:12])
         return (obj.marker_id, H, paper_px, disc), black_px, region_px
 
     def _tool_plate_item(self, view: _View, arm: np.ndarray) -> Optional[_Item]:
@@ -1310,7 +1329,10 @@ class SimDesk:
         for it in items:
             if it.cover is None:
                 polys = self._silhouettes(it) if it.occluder else []
-                if polys:
+                box = _item_box(it) if polys and it.marker is None and not it.textures else ()
+                if box:  # a bound of them all (wider than their own: it only skips far targets)
+                    it.cover = ([polys, box[:2], box[2:], None],)
+                elif polys:
                     # the bounds of them all as Python floats (NaN wins, as in numpy's min); each
                     # polygon's own bounds only when a target lies within them all
                     allp = polys[0] if len(polys) == 1 else np.concatenate(polys)
@@ -1620,10 +1642,23 @@ class SimDesk:
             it.kept = (img.shape, before, roi.copy())
         return box
 
-    def _draw(self, view: _View, items: list, shadows3: list) -> tuple[np.ndarray, Optional[list]]:
+    def _draw(self, view: _View, items: list, shadows3: list,
+              canvas: bool = False) -> tuple[np.ndarray, Optional[list]]:
         """The view's desk with ``items`` painted (and the shadows after the flat ones), and the
-        boxes (x0, y0, x1, y1) outside which it is still the bare desk (None: no such bound)."""
-        img = view.desk.copy()
+        boxes (x0, y0, x1, y1) outside which it is still the bare desk (None: no such bound).
+
+        With ``canvas`` the image is the view's kept canvas (valid until the next such draw: the
+        caller finishes it into a new image), else a new copy of the desk."""
+        if canvas:
+            img = view.canvas
+            if img is None or view.canvas_dirty is None:
+                img = view.canvas = view.desk.copy()
+            else:
+                for x0, y0, x1, y1 in view.canvas_dirty:
+                    img[y0:y1, x0:x1] = view.desk[y0:y1, x0:x1]
+            view.canvas_dirty = None  # (until this drawing has told where it painted)
+        else:
+            img = view.desk.copy()
         dirty: list = []
         bounded = True
         n_flat = sum(1 for it in items if it.flat)
@@ -1646,6 +1681,8 @@ class SimDesk:
                     dirty.append(box)
         if n_flat == len(items):
             self._draw_shadows(img, view, shadows3, dirty)
+        if canvas and bounded:
+            view.canvas_dirty = _merge_boxes(dirty, 0, img.shape[1], img.shape[0])
         return img, dirty if bounded else None
 
     def _finish(self, img: np.ndarray, t: float, side_index: int, view: Optional[_View] = None,
@@ -1761,8 +1798,14 @@ class SimDesk:
         for i, side in enumerate(SIDES):
             view = self._views[side]
             layouts[side] = items = self._layout(view, st, arm)
-            img, dirty = self._draw(view, items, shadows3)
-            images.append(self._finish(img, t, i, view, dirty))
+            # with a blur the finish makes a new image: the view's canvas can be drawn into
+            canvas = self.blur_sigma_px > 0 and view.canvas_lock.acquire(blocking=False)
+            try:
+                img, dirty = self._draw(view, items, shadows3, canvas)
+                images.append(self._finish(img, t, i, view, dirty))
+            finally:
+                if canvas:
+                    view.canvas_lock.release()
         return images[0], images[1], self._truth(st, layouts)
 
     def render_camera(self, base_T_camera: np.ndarray, K: np.ndarray, size: tuple[int, int], t: float,

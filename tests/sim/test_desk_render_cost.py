@@ -240,3 +240,21 @@ def test_render_camera_is_unchanged_by_the_rig_views_caches(rig):
     image, _ = desk.render_camera(T, rig.K, (320, 240), 5.6)
     again, _ = SimDesk(rig, scenario="objects").render_camera(T, rig.K, (320, 240), 5.6)
     assert np.array_equal(image, again)
+
+
+def test_after_a_frame_without_bounds_the_next_frames_are_drawn_on_a_clean_desk(rig, monkeypatch):
+    """An item whose outline has no bound (NaN, or px beyond fillPoly's range) sends the frame
+    through the whole-image finish (the LUT then changes the kept canvas everywhere); the frames
+    after it still equal a fresh desk's."""
+    desk = SimDesk(rig, scenario="wander")
+    desk.set_camera_settings(CameraSettings(contrast=1.3))
+    real = desk_module._item_box
+    monkeypatch.setattr(desk_module, "_item_box", lambda it: (real(it), ())[1])  # its outlines made, no bound
+    desk.render(11.0, ARM)
+    monkeypatch.setattr(desk_module, "_item_box", real)
+    for k in range(1, 4):
+        t = 11.0 + k / 30
+        fresh = SimDesk(rig, scenario="wander")
+        fresh.set_camera_settings(CameraSettings(contrast=1.3))
+        left, right, _ = desk.render(t, arm_at(k))
+        assert_same_images((left, right), fresh.render(t, arm_at(k))[:2], f"frame {k} after the unbounded one")
