@@ -4,14 +4,15 @@ Run: ``.venv/bin/python -m bench.bench_render`` (prints the figures; never a pas
 ``rows(n)`` feeds `make bench`'s table.
 
 ``--scenes``: the two scenes the Pi bench uses, as the app renders them (the default robot's
-arm drawn from its kinematics, carrying its tool marker): ``wander`` with the arm moving (it
-follows a marker) and ``objects`` with the arm still and moving; the median CPU ms (all of the
-process's threads: what a CPU quota counts; and the rendering thread's own, as a per-thread
-profile shows the sim camera's thread) and wall ms of ``SimDesk.render`` per stereo pair.
+arm drawn from its kinematics, carrying its tool marker), each with the arm moving (following a
+marker, pointing) and still (idle): the median CPU ms (all of the process's threads — what a CPU
+quota counts — and the rendering thread's own, as a per-thread profile shows the sim camera's
+thread) and wall ms of ``SimDesk.render`` per stereo pair.
 ``--threads N`` sets OpenCV's threads first (a Pi-budget process is better measured with 1: a
 quota counts the pool's idle spinning too). ``--against PATH`` renders the same frames with
-another version of ``core/sim/desk.py`` too (e.g. ``git show HEAD~1:core/sim/desk.py >
-/tmp/desk_before.py``), in alternating blocks of frames: before and after in the same sitting.
+another version of ``core/sim/desk.py`` too (e.g. ``git show 6dc2fe5:core/sim/desk.py >
+/tmp/desk_before.py``: the desk before issue 28's third round), in alternating blocks of frames:
+before and after in the same sitting.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ from core.sim.rig import SimRig
 
 # base → shoulder → elbow → tool, robot_base (m): the arm reaching over the cups
 ARM_POINTS = np.array([(0.0, 0.0, 0.0), (0.0, 0.0, 0.066), (0.0, 0.06, 0.17), (0.0, 0.15, 0.12)])
-SCENES = (("wander", True), ("objects", False), ("objects", True))  # (scenario, arm moving)
+SCENES = (("wander", True), ("wander", False), ("objects", False), ("objects", True))  # (scenario, arm moving)
 BLOCK = 20  # --against: frames rendered by one desk before the other takes its turn
 
 
