@@ -153,10 +153,13 @@ def _kernel(size: int) -> Optional[np.ndarray]:
 # to half its size (INTER_AREA: each pixel the mean of a 2x2 block), a quarter of the pixels to
 # convert and classify; the masks are then made, opened, closed and outlined at full size only in
 # a box around each patch found there, so the blobs and their outlines are those of the
-# full-size search (tests/detect/test_colour_regions.py). A blob that survives a 3 px opening and
-# is 16 px² or more holds a whole 2x2 block of its colour, which the half-size image keeps; so
-# the half-size search is used only with ``open_px`` ≥ HALF_SIZE_MIN_OPEN_PX and ``min_area_px``
-# ≥ HALF_SIZE_MIN_AREA_PX, and the whole image is searched at full size otherwise.
+# full-size search wherever the half-size image shows the blob at all (tests/detect/
+# test_colour_regions.py: identical on the simulated desk, its webcam-like renders, blurred noise
+# and the real photos). A blob that survives a 3 px opening and is 16 px² or more nearly always
+# holds a whole 2x2 block of its colour, whose mean the half-size image keeps in range; one that
+# does not (a thin diagonal chain, a 2x2 mean leaving a narrow range) can be missed. So the
+# half-size search is used only with ``open_px`` ≥ HALF_SIZE_MIN_OPEN_PX and ``min_area_px`` ≥
+# HALF_SIZE_MIN_AREA_PX, and the whole image is searched at full size otherwise.
 HALF_SIZE_MIN_OPEN_PX = 3
 HALF_SIZE_MIN_AREA_PX = 16.0
 HALF_SIZE_MIN_SIDE_PX = 16  # a smaller image (an ROI) is searched at full size
