@@ -187,6 +187,7 @@ class HsvDetector(BaseDetector):
         # pixels that are 0 in the whole image too), and the outlines need a row of 0 around them
         self._margin = p.open_px + p.close_px + 2
         self._luts = _bit_luts(p.colours)
+        # detect() searches a half-size image first (see HALF_SIZE_MIN_OPEN_PX); masks() never does
         self.half_size = p.open_px >= HALF_SIZE_MIN_OPEN_PX and p.min_area_px >= HALF_SIZE_MIN_AREA_PX
 
     def masks(self, image_bgr: np.ndarray) -> dict[str, np.ndarray]:
