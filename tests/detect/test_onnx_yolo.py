@@ -269,3 +269,17 @@ def test_it_is_a_detector_made_by_the_registry(tmp_path):
     check(wider.detect(FRAME), [A, B])
     reloaded = det.with_params(classes=("x", "y", "z"))  # names change: the model is loaded again
     assert reloaded._net is not det._net and [d.label for d in reloaded.detect(FRAME)] == ["y"]
+
+
+@pytest.mark.parametrize("shape", [(320, 320, 3), (256, 320, 3), (1, 7, 3)])
+def test_the_network_input_is_opencv_dnn_blob_to_the_bit(shape):
+    """The letterboxed image as the model's input: what cv2.dnn.blobFromImage(1/255, swapRB) gives."""
+    import cv2
+
+    from core.detect.onnx_yolo import network_input
+
+    image = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)
+    expected = cv2.dnn.blobFromImage(image, 1 / 255.0, swapRB=True, crop=False)
+    got = network_input(image)
+    assert got.dtype == np.float32 and got.flags.c_contiguous
+    assert np.array_equal(got, expected)
