@@ -102,6 +102,16 @@ def test_overlapping_windows_merge():
     assert _merge_boxes([(0, 0, 10, 10), (5, 5, 20, 20), (30, 30, 40, 40)]) == [(0, 0, 20, 20), (30, 30, 40, 40)]
 
 
+def covered(f: StereoFrame, box: dict) -> StereoFrame:
+    """``f`` with the marker whose corners ``box`` gives per view painted over in grey (6 px margin)."""
+    left, right = f.left.copy(), f.right.copy()
+    for image, side in ((left, "left"), (right, "right")):
+        x0, y0 = np.floor(box[side].min(axis=0)).astype(int) - 6
+        x1, y1 = np.ceil(box[side].max(axis=0)).astype(int) + 6
+        image[y0:y1, x0:x1] = 128
+    return StereoFrame(f.seq, f.t, left, right, truth=f.truth)
+
+
 def test_a_marker_hidden_for_long_is_looked_for_every_third_frame_and_found_when_it_comes_back(rig):
     """Issue 28 (a Pi 4 budget): a full-frame search on every frame while a marker is hidden (by the
     arm following it) was most of the markers' time. After LOST_EVERY_FRAME frames a lost marker is
@@ -114,12 +124,7 @@ def test_a_marker_hidden_for_long_is_looked_for_every_third_frame_and_found_when
     box = {}
     for k, f in enumerate(frames("static", 45)):
         if k in hidden:  # marker 50 covered in both views (grey, like the arm's link)
-            left, right = f.left.copy(), f.right.copy()
-            for image, side in ((left, "left"), (right, "right")):
-                x0, y0 = np.floor(box[side].min(axis=0)).astype(int) - 6
-                x1, y1 = np.ceil(box[side].max(axis=0)).astype(int) + 6
-                image[y0:y1, x0:x1] = 128
-            f = StereoFrame(f.seq, f.t, left, right, truth=f.truth)
+            f = covered(f, box)
         r = p.process(f)
         if k == 0:  # where marker 50 is (the scene is static)
             box = {"left": np.array(r.marker(50).left_corners), "right": np.array(r.marker(50).right_corners)}
@@ -157,12 +162,7 @@ def test_the_robust_search_looks_again_periodically_only_for_the_markers_asked_f
             if k == 1:
                 p.robust_detector = robust = _Counted(p.robust_detector, p)
             if k >= 5:  # hidden from frame 5 on, in both views
-                left, right = f.left.copy(), f.right.copy()
-                for image, side in ((left, "left"), (right, "right")):
-                    x0, y0 = np.floor(box[side].min(axis=0)).astype(int) - 6
-                    x1, y1 = np.ceil(box[side].max(axis=0)).astype(int) + 6
-                    image[y0:y1, x0:x1] = 128
-                f = StereoFrame(f.seq, f.t, left, right, truth=f.truth)
+                f = covered(f, box)
             r = p.process(f)
             if k == 0:
                 box = {"left": np.array(r.marker(hide).left_corners), "right": np.array(r.marker(hide).right_corners)}
