@@ -175,6 +175,11 @@ def draw_views(views, result, max_disparity: float, followed) -> None:
 
 def draw_twin(twin, session, result, command, state) -> None:
     """The markers, the commanded and the measured (or, in a replay, the recorded) arm in ``twin``."""
+    with twin.batch():  # the side view projects the new markers for the new arm plane once
+        _draw_twin(twin, session, result, command, state)
+
+
+def _draw_twin(twin, session, result, command, state) -> None:
     s, r = session, result
     if r is not None and r.frame is not None:
         twin.set_markers({m.marker_id: np.asarray(m.base_p_centre) for m in r.markers

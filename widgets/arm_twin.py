@@ -19,7 +19,8 @@ names are imported here too, so ``from widgets.arm_twin import …`` keeps worki
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Optional, Sequence
+from contextlib import contextmanager
+from typing import Any, Iterator, Mapping, Optional, Sequence
 
 import numpy as np
 from widgets._pyqtgraph import pg
@@ -84,6 +85,8 @@ from widgets.arm_twin_plots import (
     place_labels,
     _set_curve,
     _set_points,
+    Scatter,
+    still,
     _ViewItems,
     _xy,
 )
@@ -102,6 +105,13 @@ class TwinBase:
     # the baseline of bench/bench_window.py); False: a call with what is drawn is skipped
     redraw_unchanged = False
     _coloured_reachable: Optional[bool] = None  # the reachability the target is coloured for
+
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """A frame's several calls (markers, arm, levels …) drawn together: a twin may leave
+        what several of them change to the end (the 2D twin's side view). The 3D twin draws
+        each call as it comes."""
+        yield
 
     def _take_arm(self, commanded, measured) -> bool:
         """Keep the chains (N,3 m, or None) of ``set_arm``; False when both are where they were
@@ -226,6 +236,8 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         # teleoperation (set_teleop): boxes as (lo, hi) tuples in m, points (3,) m
         self._teleop_boxes: tuple = (None, None)  # (hand volume, target box)
         self._teleop_points: tuple = (None, None)  # (hand, mapped point)
+        self._batching = False  # inside batch(): the side view's projections wait for its end
+        self._side_pending = self._side_markers_pending = False
         self._level_brush = {k: pg.mkBrush(*LEVEL_COLOURS[k]) for k in LEVELS}
         self._level_pen = {"ok": pg.mkPen("k", width=1), "warn": pg.mkPen("w", width=2),
                            "limit": pg.mkPen("w", width=2)}
@@ -236,12 +248,12 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         self._top = _ViewItems(self.top_plot)
         self._side = _ViewItems(self.side_plot)
 
-        desk = pg.PlotDataItem([-1e4, 1e4], [0.0, 0.0], pen=pg.mkPen(DESK_COLOUR, width=2),
-                               fillLevel=-1e4, brush=pg.mkBrush(*DESK_COLOUR, 60))
+        desk = still(pg.PlotDataItem([-1e4, 1e4], [0.0, 0.0], pen=pg.mkPen(DESK_COLOUR, width=2),
+                                     fillLevel=-1e4, brush=pg.mkBrush(*DESK_COLOUR, 60)))
         desk.setZValue(-10)
         self.side_plot.addItem(desk)
-        self._margin_line = pg.PlotDataItem(pen=pg.mkPen(DESK_MARGIN_COLOUR, width=1,
-                                                         style=QtCore.Qt.PenStyle.DashLine))
+        self._margin_line = still(pg.PlotDataItem(pen=pg.mkPen(DESK_MARGIN_COLOUR, width=1,
+                                                               style=QtCore.Qt.PenStyle.DashLine)))
         self._margin_line.setZValue(-9)
         self._margin_line.setVisible(False)
         self.side_plot.addItem(self._margin_line)
@@ -368,7 +380,10 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
             top.setData(*_xy(chain))
             side.setData(*self._side_xy(chain))
         if moved:
-            self._redraw_side_extras()
+            if self._batching:
+                self._side_pending = True  # with the markers of this frame, at the batch's end
+            else:
+                self._redraw_side_extras()
         self._draw_joints()
 
     def set_extra_segments(self, segments: Optional[Sequence[np.ndarray]]) -> None:
@@ -395,8 +410,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
 
     def _colour_target(self, colour: str) -> None:
         pen = pg.mkPen(colour, width=3)  # a cross in both views
-        self._top.target.setPen(pen)
-        self._side.target.setPen(pen)
+        for view in (self._top, self._side):
+            view.target.setPen(pen)
+            view.drawn_target = None  # drawn again in its new colour
 
     def set_workspace(self, top_outline: Optional[np.ndarray],
                       side_outline: Optional[np.ndarray]) -> None:
@@ -433,8 +449,30 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         top = xyz[:, :2] * M_TO_CM
         _set_points(self._top.markers, top[:, 0], top[:, 1])
         self._top.set_marker_labels(ids, top)
-        self._draw_side_markers()
+        if self._batching:
+            self._side_markers_pending = True  # the arm may turn the side view's plane yet
+        else:
+            self._draw_side_markers()
         self._show_marker_positions(self._markers)
+
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """Calls inside it draw the side view's markers and the re-projections a turned plane
+        needs once, at its end: a frame's new markers and new arm azimuth otherwise project the
+        markers (and lay out their labels) twice. What the top view shows is drawn at once."""
+        if self._batching:
+            yield
+            return
+        self._batching, self._side_pending, self._side_markers_pending = True, False, False
+        try:
+            yield
+        finally:
+            self._batching = False
+            if self._side_pending:
+                self._redraw_side_extras()  # the side markers among them
+            elif self._side_markers_pending:
+                self._draw_side_markers()
+            self._side_pending = self._side_markers_pending = False
 
     def set_teleop(self, hand_box=None, target_box=None, base_p_hand=None, base_p_mapped=None) -> None:
         """Teleoperation in both views: the calibrated hand volume (dashed, white), the target box it
@@ -530,6 +568,7 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
             return  # nothing drawn, nothing to draw (serial arms, every frame)
         x, y = project(self._extra)
         view.extra.setData(x, y, connect="finite")
+        view.extra.setVisible(len(x) > 0)
         _set_points(view.extra_points, *_finite_rows(x, y))
 
     def _draw_joints(self) -> None:
@@ -548,9 +587,9 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         items = {
             "hand_box": pg.PlotCurveItem(pen=pg.mkPen(TELEOP_HAND_COLOUR, width=2, style=QtCore.Qt.PenStyle.DashLine)),
             "target_box": pg.PlotCurveItem(pen=pg.mkPen(TELEOP_TARGET_COLOUR, width=2)),
-            "hand": pg.ScatterPlotItem(symbol="o", size=14, brush=None, pen=pg.mkPen(TELEOP_HAND_COLOUR, width=3)),
-            "mapped": pg.ScatterPlotItem(symbol="d", size=12, brush=pg.mkBrush(TELEOP_TARGET_COLOUR),
-                                         pen=pg.mkPen("k", width=1)),
+            "hand": Scatter(symbol="o", size=14, brush=None, pen=pg.mkPen(TELEOP_HAND_COLOUR, width=3)),
+            "mapped": Scatter(symbol="d", size=12, brush=pg.mkBrush(TELEOP_TARGET_COLOUR),
+                              pen=pg.mkPen("k", width=1)),
         }
         for z, item in zip((2.5, 2.6, 13.5, 13.6), items.values()):
             item.setZValue(z)  # boxes above the workspace, below the arm; the points above the target cross
@@ -589,6 +628,14 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
 
     def _draw_target(self) -> None:
         for view, project in ((self._top, _xy), (self._side, self._side_xy)):
+            # the top view's target depends on the points only, the side view's on the plane too;
+            # a frame asks for it after the arm moved (side) and again with the new target
+            drawn = (self._target, self._aimed, None if view is self._top else self._azimuth)
+            last = view.drawn_target
+            if (not self.redraw_unchanged and last is not None and last[0] is drawn[0]
+                    and last[1] is drawn[1] and last[2] == drawn[2]):
+                continue
+            view.drawn_target = drawn
             target = None if self._target is None else self._target[None, :]
             _set_points(view.target, *project(target))
             aimed = None if self._aimed is None else self._aimed[None, :]

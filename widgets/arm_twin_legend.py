@@ -115,13 +115,19 @@ def break_lines(entries: Sequence[Sequence[float]], width: float, entry_gap: flo
         used = run
     return [line for line in lines if line]
 
-class LegendLabel(QtWidgets.QLabel):
+class LegendLabel(QtWidgets.QWidget):
     """The legend under a twin: entries (rich text) that wrap between entries, never inside
     one unless it is wider than the whole row, so no entry is ever cut.
 
     The label breaks its lines itself (:func:`break_lines`) for its width, on every resize
     and on :meth:`set_entries`; its height follows the line count. (QLabel's own word wrap
     would make it a height-for-width widget, which makes parent layouts over-allocate height.)
+
+    The text is drawn by a QLabel inside this widget, placed by hand at its whole size: a
+    QLabel's new text asks its parent's layout to lay out again, and a marker's position changes
+    the text with every frame — in the twin's layout that re-laid out the whole window five to
+    thirty times a second. Here only a new line count (a new height) reaches the twin's layout,
+    and the label paints every pixel it covers (black), so nothing under it is repainted.
 
     Signals: none.
     """
@@ -132,17 +138,27 @@ class LegendLabel(QtWidgets.QLabel):
         self._lines: list[list[tuple[int, int, int]]] = []
         self._widths: dict[str, float] = {}
         self._broken_for = -1  # the text width the lines were broken for
-        self.setTextFormat(QtCore.Qt.TextFormat.RichText)
-        self.setWordWrap(False)
+        self._hint_key = None  # the lines and font the parent layout last had the height of
+        self._measure_doc: QtGui.QTextDocument | None = None  # one document measures every word
+        self._label = QtWidgets.QLabel(self)
+        self._label.setTextFormat(QtCore.Qt.TextFormat.RichText)
+        self._label.setWordWrap(False)
+        # it fills its background (the style sheet's black): an opaque widget, so Qt need not
+        # paint the twin, the splitter … under it when its text changes
+        self._label.setAutoFillBackground(True)
         # the width is the twin's; the height is what the lines need
         self.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
                            QtWidgets.QSizePolicy.Policy.Fixed)
         font = self.font()
         font.setPointSizeF(max(7.0, font.pointSizeF() * 0.85))
-        self.setFont(font)
-        # same dark background as the plots, so the plot colours read the same
-        self.setStyleSheet("QLabel { background: black; color: #dddddd; }")
-        self.setContentsMargins(4, 2, 4, 2)  # not in the style sheet: contentsRect() holds them
+        self.setFont(font)  # the label inside inherits it
+        # same dark background as the plots, so the plot colours read the same (a palette, not a
+        # style sheet: Qt counts a style-sheet background as not opaque, see above)
+        palette = self._label.palette()
+        palette.setColor(QtGui.QPalette.ColorRole.Window, QtGui.QColor("black"))
+        palette.setColor(QtGui.QPalette.ColorRole.WindowText, QtGui.QColor("#dddddd"))
+        self._label.setPalette(palette)
+        self._label.setContentsMargins(4, 2, 4, 2)  # not in the style sheet: contentsRect() holds them
 
     def set_entries(self, entries: Sequence[Sequence[str]]) -> None:
         """Show these entries, each a sequence of HTML words (:func:`legend_entries`)."""
@@ -156,6 +172,10 @@ class LegendLabel(QtWidgets.QLabel):
         """The entries as set."""
         return list(self._entries)
 
+    def text(self) -> str:
+        """The rich text shown: the lines joined by ``<br>``."""
+        return self._label.text()
+
     def line_count(self) -> int:
         """How many lines the legend takes at its current width."""
         return len(self._lines)
@@ -166,7 +186,7 @@ class LegendLabel(QtWidgets.QLabel):
 
     def height_for_width(self, width: int) -> int:
         """The height (px) the legend takes when the label is ``width`` px wide."""
-        m = self.contentsMargins()
+        m = self._label.contentsMargins()
         lines = break_lines(self._entry_widths(), max(1.0, width - m.left() - m.right()
                                                       - LEGEND_SAFETY_PX), *self._gaps())
         doc = QtGui.QTextDocument()  # as QLabel lays out rich text
@@ -177,10 +197,18 @@ class LegendLabel(QtWidgets.QLabel):
 
     def text_width(self) -> int:
         """The width (px) the lines must fit: the label's minus its margins."""
-        return self.contentsRect().width()
+        return self._label.contentsRect().width()
+
+    def sizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
+        """The label's own measurement of the text it shows (its height: the lines')."""
+        return self._label.sizeHint()
+
+    def minimumSizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt override)
+        return self._label.minimumSizeHint()
 
     def resizeEvent(self, event) -> None:  # noqa: N802 (Qt override)
         super().resizeEvent(event)
+        self._label.setGeometry(self.rect())  # by hand: its new texts then ask no layout for anything
         if event.size().width() != event.oldSize().width():
             self._relayout()
 
@@ -189,15 +217,18 @@ class LegendLabel(QtWidgets.QLabel):
         if event.type() == QtCore.QEvent.Type.FontChange:
             self._widths.clear()
             self._relayout(force=True)
+            self._tell_layout()
 
     def _measure(self, fragment: str) -> float:
         width = self._widths.get(fragment)
         if width is None:
             if len(self._widths) > 512:  # marker positions make new words every frame
                 self._widths.clear()
-            doc = QtGui.QTextDocument()
+            doc = self._measure_doc
+            if doc is None:
+                doc = self._measure_doc = QtGui.QTextDocument(self)
+                doc.setDocumentMargin(0)
             doc.setDefaultFont(self.font())
-            doc.setDocumentMargin(0)
             doc.setHtml(fragment)
             width = self._widths[fragment] = doc.idealWidth()
         return width
@@ -219,8 +250,18 @@ class LegendLabel(QtWidgets.QLabel):
                                   *self._gaps())
         text = "<br>".join(LEGEND_ENTRY_GAP.join(" ".join(self._entries[i][a:b]) for i, a, b in line)
                            for line in self._lines)
-        if text != self.text():
-            self.setText(text)  # updates the geometry: a new line count gives a new height
+        if text != self._label.text():
+            self._label.setText(text)
+            self._tell_layout()
+
+    def _tell_layout(self) -> None:
+        """Other lines (another count, other entries on them) or another font may need another
+        height: the parent layout asks for it again. The same lines with new words (a marker's
+        new position) are no news to it — and measuring the text here would lay it out twice."""
+        key = (tuple(map(tuple, self._lines)), self.font().key())
+        if key != self._hint_key:
+            self._hint_key = key
+            self.updateGeometry()
 
 
 def _plain(fragment: str) -> str:

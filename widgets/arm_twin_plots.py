@@ -11,7 +11,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 from widgets._pyqtgraph import pg
-from PySide6 import QtCore, QtGui
+from PySide6 import QtCore, QtGui, QtWidgets
 
 from widgets.arm_twin_geometry import (
     AIMED_COLOUR,
@@ -87,6 +87,69 @@ def place_labels(anchors: Sequence[tuple[float, float]], sizes: Sequence[tuple[f
 # --------------------------------------------------------------------------------------------
 # Plot items
 
+# Items that keep their drawing for many frames (the grid, the workspace, the desk …) are drawn
+# once into a pixmap the size of the view and blitted after that: a twin view repaints whenever
+# the arm moves, and pyqtgraph's paint of an item is a few hundred µs of Python on a Pi 4 core.
+STILL = QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache
+
+
+def still(item):
+    """``item`` drawn from a cached pixmap until it changes (its data, pen, view or size); a
+    PlotDataItem draws nothing itself: its curve and symbols are cached."""
+    for part in (item.curve, item.scatter) if isinstance(item, pg.PlotDataItem) else (item,):
+        part.setCacheMode(STILL)
+    return item
+
+
+FAST_SYMBOLS = 16  # Scatter.paint draws up to this many symbols itself
+CLIP_PX = 2.0 ** 30
+
+
+class Scatter(pg.ScatterPlotItem):
+    """A ScatterPlotItem whose bounding rectangle is computed once per data and view.
+
+    Qt asks an item for it several times per repaint; pyqtgraph's scatter works it out each
+    time from its data and the view's pixel size (~25 µs of Python each, 18 times per twin
+    view repaint). It changes only with the points (new data array), the symbols' sizes or the
+    view's transform (``viewTransformChanged``), so those are its cache key.
+    """
+
+    _rect_key = None
+    _rect = None
+
+    def boundingRect(self) -> QtCore.QRectF:  # noqa: N802 (Qt override)
+        key = (self.data, self._maxSpotWidth, self._maxSpotPxWidth)
+        cached = self._rect_key
+        if (cached is None or cached[0] is not key[0] or cached[1:] != key[1:]):
+            self._rect = pg.ScatterPlotItem.boundingRect(self)
+            self._rect_key = key
+        return QtCore.QRectF(self._rect)
+
+    def viewTransformChanged(self) -> None:  # noqa: N802 (pyqtgraph override)
+        self._rect_key = None
+        super().viewTransformChanged()
+
+    def paint(self, p, option, widget) -> None:
+        """A handful of symbols (the twin's are one to a dozen) straight from the symbol atlas:
+        the pixmap fragments pyqtgraph would draw, at the same centres, without its culling and
+        array bookkeeping (~70 µs of Python a paint). Points off the view are clipped by the
+        view box as pyqtgraph's culling would leave them out. Anything else: pyqtgraph's paint."""
+        data = self.data
+        if (len(data) > FAST_SYMBOLS or self.opts["pxMode"] is not True or not self.opts["useCache"]
+                or self._exportOpts is not False or self.opts.get("compositionMode") is not None
+                or widget is None or widget.devicePixelRatioF() != self.fragmentAtlas.devicePixelRatio()
+                or not data["visible"].all() or not data["sourceRect"]["w"].all()):
+            pg.ScatterPlotItem.paint(self, p, option, widget)
+            return
+        to_device = p.transform()
+        pixmap = self.fragmentAtlas.pixmap
+        p.resetTransform()
+        for x, y, (sx, sy, sw, sh) in zip(data["x"].tolist(), data["y"].tolist(), data["sourceRect"].tolist()):
+            centre = to_device.map(QtCore.QPointF(x, y))
+            if abs(centre.x()) < CLIP_PX and abs(centre.y()) < CLIP_PX:  # pyqtgraph clips to ±2^30
+                p.drawPixmapFragments(QtGui.QPainter.PixmapFragment.create(
+                    centre, QtCore.QRectF(sx, sy, sw, sh)), 1, pixmap)
+
 
 def _grid_pairs(step: float, extent: float) -> tuple[np.ndarray, np.ndarray]:
     """x, y of grid line segments (pairs of points) every ``step`` within ±``extent``."""
@@ -130,6 +193,32 @@ class _Plot(pg.PlotWidget):
         self.fit_title()
 
 
+class Chain:
+    """A polyline with a dot at each point (the measured arm): a curve and a scatter, as a
+    PlotDataItem with symbols draws them, without its per-call bookkeeping (its setData cost
+    three times the two items' own). ``setData``/``getData`` as a PlotDataItem's; the parts
+    are added to the plot by the owner (``curve`` below ``scatter``)."""
+
+    def __init__(self, pen, scatter: "Scatter") -> None:
+        self.curve = pg.PlotCurveItem(pen=pen)
+        self.scatter = scatter
+        self._xy: tuple = (None, None)
+
+    def setData(self, x, y) -> None:  # noqa: N802 (pyqtgraph's name)
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        shown = len(x) > 0
+        self.curve.setData(x, y)
+        self.scatter.setData(x, y)
+        for part in (self.curve, self.scatter):  # an empty item is not painted at all
+            if part.isVisible() != shown:
+                part.setVisible(shown)
+        self._xy = (x, y) if shown else (None, None)
+
+    def getData(self) -> tuple:  # noqa: N802 (pyqtgraph's name)
+        """(x, y) as set, (None, None) when empty (as a PlotDataItem's)."""
+        return self._xy
+
+
 def _make_plot(*titles: str) -> _Plot:
     """A fixed-range, aspect-locked view with a 10 cm grid; ``titles`` longest first."""
     plot = _Plot(titles)
@@ -138,10 +227,12 @@ def _make_plot(*titles: str) -> _Plot:
     plot.fit_title()
     # pyqtgraph's showGrid() costs ~6 ms per view per repaint in software rendering; a fixed
     # 10 cm grid drawn as one curve of line pairs costs a fraction of that.
-    grid = pg.PlotCurveItem(*_grid_pairs(GRID_STEP_CM, GRID_EXTENT_CM), connect="pairs",
-                            pen=pg.mkPen(255, 255, 255, 40, width=1))
+    grid = still(pg.PlotCurveItem(*_grid_pairs(GRID_STEP_CM, GRID_EXTENT_CM), connect="pairs",
+                                  pen=pg.mkPen(255, 255, 255, 40, width=1)))
     grid.setZValue(-20)
     item.addItem(grid)
+    for side in ("left", "bottom"):  # fixed ranges: the axes change only with the view's size
+        still(item.getAxis(side))
     item.setMouseEnabled(x=False, y=False)
     item.setMenuEnabled(False)
     item.hideButtons()
@@ -155,49 +246,52 @@ class _ViewItems:
 
     def __init__(self, plot: pg.PlotWidget) -> None:
         self.plot = plot
-        self.workspace = pg.PlotCurveItem(pen=pg.mkPen(WORKSPACE_COLOUR, width=1,
-                                                       style=QtCore.Qt.PenStyle.DashLine),
-                                          connect="finite")
-        self.structure = pg.PlotCurveItem(pen=pg.mkPen(STRUCTURE_COLOUR, width=3),
-                                          connect="finite")
+        # the still parts (cached pixmaps): they change with the profile or the side view's plane
+        self.workspace = still(pg.PlotCurveItem(pen=pg.mkPen(WORKSPACE_COLOUR, width=1,
+                                                             style=QtCore.Qt.PenStyle.DashLine),
+                                                connect="finite"))
+        self.structure = still(pg.PlotCurveItem(pen=pg.mkPen(STRUCTURE_COLOUR, width=3),
+                                                connect="finite"))
         # keep-out boxes: closed outlines (NaN rows between boxes), each filled translucent red
-        self.keep_out = pg.PlotCurveItem(pen=pg.mkPen(KEEP_OUT_COLOUR, width=2), connect="finite",
-                                         fillLevel="enclosed",
-                                         brush=pg.mkBrush(*KEEP_OUT_COLOUR, KEEP_OUT_FILL_ALPHA))
+        self.keep_out = still(pg.PlotCurveItem(pen=pg.mkPen(KEEP_OUT_COLOUR, width=2), connect="finite",
+                                               fillLevel="enclosed",
+                                               brush=pg.mkBrush(*KEEP_OUT_COLOUR, KEEP_OUT_FILL_ALPHA)))
         self.keep_out.setVisible(False)
         self.preview = pg.PlotDataItem(pen=pg.mkPen(PREVIEW_COLOUR, width=1))
-        self.commanded = pg.PlotDataItem(pen=pg.mkPen(COMMANDED_COLOUR, width=2,
-                                                      style=QtCore.Qt.PenStyle.DashLine))
+        # a curve item, not a PlotDataItem: the same line for a third of its setData's Python
+        self.commanded = pg.PlotCurveItem(pen=pg.mkPen(COMMANDED_COLOUR, width=2,
+                                                       style=QtCore.Qt.PenStyle.DashLine))
         # the extra chains (the delta's arms): one curve, NaN rows between the chains
         self.extra = pg.PlotCurveItem(pen=pg.mkPen(MEASURED_COLOUR, width=4), connect="finite")
-        self.extra_points = pg.ScatterPlotItem(symbol="o", size=8,
+        self.extra_points = Scatter(symbol="o", size=8,
                                                brush=pg.mkBrush(MEASURED_COLOUR),
                                                pen=pg.mkPen("k", width=1))
-        self.measured = pg.PlotDataItem(pen=pg.mkPen(MEASURED_COLOUR, width=5),
-                                        symbol="o", symbolSize=10,
-                                        symbolBrush=pg.mkBrush(MEASURED_COLOUR),
-                                        symbolPen=pg.mkPen("k", width=1))
-        self.joints = pg.ScatterPlotItem(symbol="o")
+        self.measured = Chain(pg.mkPen(MEASURED_COLOUR, width=5), Scatter(
+            symbol="o", size=10, brush=pg.mkBrush(MEASURED_COLOUR), pen=pg.mkPen("k", width=1)))
+        self.joints = Scatter(symbol="o")
         self.aim_line = pg.PlotDataItem(pen=pg.mkPen(AIMED_COLOUR, width=1,
                                                      style=QtCore.Qt.PenStyle.DotLine))
-        self.aimed = pg.ScatterPlotItem(symbol="o", size=14, brush=None,
+        self.aimed = Scatter(symbol="o", size=14, brush=None,
                                         pen=pg.mkPen(AIMED_COLOUR, width=2))
-        self.target = pg.ScatterPlotItem(symbol="+", size=22, pen=pg.mkPen(REACHABLE_COLOUR,
+        self.target = Scatter(symbol="+", size=22, pen=pg.mkPen(REACHABLE_COLOUR,
                                                                           width=3))
-        self.markers = pg.ScatterPlotItem(symbol="s", size=9, brush=pg.mkBrush(MARKER_COLOUR),
+        self.markers = Scatter(symbol="s", size=9, brush=pg.mkBrush(MARKER_COLOUR),
                                           pen=pg.mkPen("k", width=1))
-        self.base = pg.ScatterPlotItem([0.0], [0.0], symbol="s", size=12,
-                                       brush=pg.mkBrush(90, 90, 90), pen=pg.mkPen("w"))
+        self.base = still(Scatter([0.0], [0.0], symbol="s", size=12,
+                                  brush=pg.mkBrush(90, 90, 90), pen=pg.mkPen("w")))
+        self.drawn_target = None  # (target, aimed point, side plane) last drawn (ArmTwin._draw_target)
         self.marker_labels: list[pg.TextItem] = []
         self._label_points = np.zeros((0, 2))  # where the shown labels' dots are, (n,2) view cm
         self.joints.setVisible(False)
+        self.extra.setVisible(False)  # drawn only for the delta's arms
         self.extra_points.setVisible(False)
         for z, item in enumerate((self.keep_out, self.workspace, self.structure, self.preview, self.base,
                                   self.markers, self.commanded, self.extra, self.extra_points,
                                   self.measured, self.joints, self.aim_line, self.aimed,
                                   self.target)):
-            item.setZValue(z)
-            plot.addItem(item)
+            for part in (item.curve, item.scatter) if isinstance(item, Chain) else (item,):
+                part.setZValue(z)  # a chain's dots over its line: the order they are added in
+                plot.addItem(part)
         self.view_box = plot.getPlotItem().vb
         # a label's size in view units changes with the view's scale: lay them out again
         self.view_box.sigTransformChanged.connect(self.layout_labels)
@@ -268,11 +362,13 @@ def _set_points(item: pg.ScatterPlotItem, x: np.ndarray, y: np.ndarray, **kwargs
 
 
 def _set_curve(item: pg.PlotDataItem, x: np.ndarray, y: np.ndarray) -> None:
-    """setData, skipped when emptying a curve that is already empty (preview, aim line)."""
+    """setData, skipped when emptying a curve that is already empty (preview, aim line); an
+    empty curve is hidden (Qt then neither paints it nor asks for its bounds)."""
     if len(x) == 0 and getattr(item, "_deskarm_empty", False):
         return
     item.setData(x, y)
     item._deskarm_empty = len(x) == 0
+    item.setVisible(len(x) > 0)
 
 
 def _finite_rows(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
