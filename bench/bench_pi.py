@@ -449,6 +449,10 @@ def child_window(seconds: float, app_argv: list[str]) -> int:
         sampler.start()
 
     def finish() -> None:
+        camera = getattr(getattr(st["w"], "session", None), "camera", None)
+        for name in ("frames_rendered", "frames_skipped", "frames_unread", "frames_repeated", "frames_delivered"):
+            if isinstance(getattr(camera, name, None), int):  # what the camera made of the loop's pace
+                seen[f"camera_{name}"] = getattr(camera, name)
         report()
         st["finishing"] = True
         w = st["w"]

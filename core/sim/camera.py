@@ -119,6 +119,7 @@ class SimStereoCamera(ClockPacedSource):
         self._read_at: collections.deque = collections.deque(maxlen=READS_KEPT)  # monotonic times of reads
         self._waiting = 0  # reads waiting for a frame (guarded by _ready)
         self.frames_skipped = 0  # frames of the wall clock's grid not rendered: nobody would have read them
+        self.frames_unread = 0  # frames rendered and published, then replaced by a newer one before a read
 
     @property
     def name(self) -> str:
@@ -305,6 +306,9 @@ class SimStereoCamera(ClockPacedSource):
             if t_frame > now and self._stop_wait(t_frame - now):
                 return
             with self._ready:
+                old = self._published
+                if old is not None and old.seq > self._returned_seq:
+                    self.frames_unread += 1  # replaced before anyone read it: its render was wasted
                 self._published = frame
                 self._next = t_frame + period
                 self._ready.notify_all()
@@ -318,9 +322,20 @@ class SimStereoCamera(ClockPacedSource):
         camera's are rendered, and a loop held to a Pi's CPU read one frame in five while the
         renders of the other four took the CPU it needed (the rendered scene stays the same: the
         frames a reader gets are those it would have got). A reader that comes earlier than its
-        recent pace waits for the next frame (at most one period)."""
+        recent pace waits for the next frame (at most one period).
+
+        Nor is a frame rendered while the previous one, published a period ago, is still unread:
+        the busy reader takes that one when it comes, and a newer one would replace it unseen (in
+        a Pi 4 core's budget a fifth of the renders were so wasted: the pace of a starved reader
+        jitters too much to predict). An unread frame older than that (a reader that paused) does
+        not hold the next render back: a returning reader gets a frame at most two periods old."""
         with self._ready:
-            if self._waiting or len(self._read_at) < 3:
+            if self._waiting:
+                return False
+            last = self._published
+            if last is not None and last.seq > self._returned_seq and last.t >= t_frame - 1.5 * period:
+                return True
+            if len(self._read_at) < 3:
                 return False
             reads = list(self._read_at)
         cycle = float(np.median(np.diff(reads)))

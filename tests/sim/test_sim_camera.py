@@ -163,6 +163,25 @@ def test_a_frame_the_busy_reader_would_never_take_is_not_rendered_and_a_waiting_
     assert not fresh._skips(10.0 + period, period)
 
 
+def test_no_frame_is_rendered_over_the_last_one_while_it_is_unread_unless_that_one_is_old():
+    """A starved reader's pace jitters: a frame published a period ago and not yet read holds the
+    next render back (it would replace it unseen); one older than that (a reader that paused) does not."""
+    from core.messages import StereoFrame
+
+    cam = SimStereoCamera(scenario="wander", fps=30.0, clock=WallClock())
+    period = 1.0 / 30.0
+    blank = np.zeros((2, 2, 3), np.uint8)
+    cam._returned_seq = 4
+    cam._published = StereoFrame(seq=5, t=10.0, left=blank, right=blank)  # unread
+    assert cam._skips(10.0 + period, period)  # no pace known: only the unread frame holds it back
+    assert not cam._skips(10.0 + 2 * period, period)  # the unread one is two periods old: rendered
+    cam._waiting = 1  # a reader waiting: rendered whatever is published
+    assert not cam._skips(10.0 + period, period)
+    cam._waiting = 0
+    cam._returned_seq = 5  # read: the next one is rendered
+    assert not cam._skips(10.0 + period, period)
+
+
 def test_a_slow_reader_on_a_wall_clock_still_gets_fresh_frames_in_order():
     """A reader slower than the camera (it works on each frame for four periods) is
     handed frames in order, never before their time, and frames are skipped, not piled up."""
