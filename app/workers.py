@@ -65,6 +65,10 @@ class GuardedDetector:
     def params(self):
         return self.inner.params
 
+    @property
+    def heavy(self) -> bool:
+        return bool(getattr(self.inner, "heavy", False))
+
     def with_params(self, **changes) -> "GuardedDetector":
         return GuardedDetector(self.inner.with_params(**changes), self.spec_name)
 

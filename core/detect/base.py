@@ -155,6 +155,7 @@ class BaseDetector:
 
     name = "base"
     params_type: type = object
+    heavy = False  # a network a view (StereoObjectPerception then searches one view a frame between full searches)
 
     def __init__(self, params=None):
         if params is None:

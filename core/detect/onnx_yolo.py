@@ -358,6 +358,7 @@ class OnnxYoloDetector(BaseDetector):
 
     kind = "object"
     params_type = OnnxYoloParams
+    heavy = True  # a forward pass a view: the stereo perception alternates views between full searches
 
     def __init__(self, path: Union[PathLike, OnnxYoloParams], classes: Optional[Union[Sequence[str], PathLike]] = None,
                  input_size: Optional[Union[int, Sequence[int]]] = None, score_threshold: float = 0.25,

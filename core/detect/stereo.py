@@ -30,6 +30,16 @@ its image motion). A full-frame search runs every ``full_frame_every`` frames (a
 appear only then) and whenever a track is tentative or missed a frame, or a blob touches its
 window's edge. ``last_full_frame_search`` and ``last_timings_ms`` describe the last frame.
 
+Alternating views (``alternate_views``; by default when every detector is ``heavy``, a network a
+view such as the desk detector): between full searches — every ``full_frame_every`` frames, and
+on every frame while a track is new or missed — the detectors run in the left view only; the
+right view's boxes are the confirmed tracks' predicted boxes, placed where the left view's patch
+of the object matches (``stereo_matched_centre``; a blob's outline moved there gives its
+sub-pixel centre). A full search's right boxes are placed so too when that moves them ≤
+FULL_PLACE_MAX_PX, so an object's depth is measured the same way on every frame. On the objects
+run (desk detector, 45 s): half the network passes, moving objects' 3D error p95 9.7 → 4.2 mm,
+velocity error p50 15 → 12 mm/s, no id switch.
+
 Trackers (``tracker`` = "kcf", "csrt", "mil", "mosse"): each confirmed track runs a
 ``core.detect.tracking.ObjectTracker`` per view, seeded from its detection, re-seeded from the
 detector every ``reseed_every`` frames or when they disagree. On a frame where the detector
@@ -231,6 +241,7 @@ REACQUIRE_M = 0.20  # a live track's last position this near takes a detection i
 LOST_KEEP_S = 8.0  # a lost track is remembered this long, for an object that leaves and comes back
 LOST_REACQUIRE_M = 0.40  # … and takes a detection of its label this near its last position
 SIDES = ("left", "right")
+FULL_PLACE_MAX_PX = 3.0  # alternating views: a full search's right box is placed from the left patch within this
 TRACKER_KINDS = ("kcf", "csrt", "mil", "mosse")  # ``tracker=``: core.detect.tracking kinds, lower case
 EXTENT_HISTORY = 30  # a track's size in a view: the largest box of its last this many whole detections
 MERGE_SLACK = 1.25  # fragments merge when their union is at most this many times the track's size …
@@ -251,6 +262,7 @@ class _ObjectTrack:
         self.kind, self.label = kind, label
         self.kf = kalman
         self.missed = 0  # frames in a row without a triangulated measurement
+        self.score = 1.0  # of the last whole detection (a predicted box for an unsearched view keeps it)
         self.frames = 0  # triangulated frames
         self.hits = 0  # triangulated frames in a row
         # rectified centres as seen, with their capture times: (t, x, y)
@@ -344,6 +356,7 @@ class _ObjectTrack:
         self.view[side] = (t, x, y, w, h, _size(d))
         if whole:
             self.extent[side].append((w, h))
+            self.score = d.score
 
 
 def _inside(point, box, grow: float = 0.0) -> bool:
@@ -507,7 +520,8 @@ class StereoObjectPerception:
                  min_hits: int = 3, desk_check: bool = True, min_z_m: float = -0.01, max_z_m: Optional[float] = None,
                  merge_fragments: bool = True, roi_search: bool = False, full_frame_every: int = 10,
                  roi_margin: float = 0.5, tracker: Optional[str] = None, reseed_every: int = 5,
-                 detect_every: int = 1, tracker_lost_after: int = 5, fuse_circles: bool = True):
+                 detect_every: int = 1, tracker_lost_after: int = 5, fuse_circles: bool = True,
+                 alternate_views: Optional[bool] = None):
         if not (max_dy_px > 0 and min_disparity_px >= 0 and size_ratio >= 1.0 and gate_m > 0):
             raise ValueError("max_dy_px and gate_m must be > 0, min_disparity_px ≥ 0 and size_ratio ≥ 1")
         if drop_after < 1 or velocity_history < 2:
@@ -566,6 +580,8 @@ class StereoObjectPerception:
         self.reseed_every = int(reseed_every)
         self.detect_every = int(detect_every)
         self.tracker_lost_after = int(tracker_lost_after)
+        # None: alternate while every detector is a heavy one (a network per view; see alternating)
+        self.alternate_views = None if alternate_views is None else bool(alternate_views)
         self.tracks: dict[int, _ObjectTrack] = {}  # confirmed tracks, by public id
         self.tentative: dict[int, _ObjectTrack] = {}  # tracks waiting for min_hits, by internal key
         self.lost: dict[int, tuple[_ObjectTrack, float]] = {}  # dropped tracks, by id: (track, time lost)
@@ -582,6 +598,9 @@ class StereoObjectPerception:
         self._last: Optional[tuple[StereoFrame, list[ObjectObservation]]] = None
         self._plain: set = set()  # id() of this frame's merged / tracker detections: no sub-pixel refinement
         self._from_tracker: set = set()  # id() of this frame's tracker detections
+        # this frame's boxes predicted for the view not searched, by id() (held: their ids stay theirs)
+        self._predicted: dict[int, Detection] = {}
+        self._keep: list[Detection] = []  # detections made this frame whose ids the sets above hold
 
     def reset(self) -> None:
         """Forget every track (ids start again at 1)."""
@@ -610,26 +629,46 @@ class StereoObjectPerception:
         is re-placed from the left). Updates ``left``/``right`` and their rectified centres."""
         views = {"left": (left, frame.left, rect_l), "right": (right, frame.right, rect_r)}
         for i, j, *_ in pairs:
-            if id(right[j]) in self._from_tracker:
-                moved, source, idx = "right", left[i], j
-            elif id(left[i]) in self._from_tracker:
-                moved, source, idx = "left", right[j], i
-            else:
-                continue
-            other = "left" if moved == "right" else "right"
-            dets, image, rect = views[moved]
-            refined = self.refine_centres and id(source) not in self._plain
-            source_centre = blob_centre(views[other][1], source) if refined else source.centre_px
-            centre = stereo_matched_centre(views[other][1], source, image, dets[idx], centre=source_centre)
-            if centre is None:
-                continue
-            old = dets[idx]
-            shift = (centre[0] - old.centre_px[0], centre[1] - old.centre_px[1])
-            new = replace(old, centre_px=centre, box=(old.box[0] + shift[0], old.box[1] + shift[1], old.box[2], old.box[3]))
+            for moved, idx, source in (("right", j, left[i]), ("left", i, right[j])):
+                if id(views[moved][0][idx]) in self._from_tracker:
+                    predicted = id(views[moved][0][idx]) in self._predicted
+                    self._place_by_match(views, moved, idx, source, refine=predicted, tracked=not predicted)
+                    break
+
+    def _place_by_match(self, views: dict, moved: str, idx: int, source: Detection, refine: bool = False,
+                        max_shift_px: Optional[float] = None, tracked: bool = True) -> bool:
+        """Re-place ``views[moved]``'s detection ``idx`` (a tracker's or a predicted box) where
+        ``source`` (the other view's detection of the object) finds its patch near it
+        (``stereo_matched_centre``); False when it cannot (the detection stays). ``refine``: its
+        centre is then the blob's sub-pixel centre in the placed box (``blob_centre``, as a
+        detector's box gets: the patch match is biased by the background around the object),
+        else the matched centre. Not when that would move it more than ``max_shift_px``.
+        ``tracked``: the placed detection counts as a tracker's (``from_tracker``)."""
+        other = "left" if moved == "right" else "right"
+        dets, image, rect = views[moved]
+        refined = self.refine_centres and id(source) not in self._plain
+        source_centre = blob_centre(views[other][1], source) if refined else source.centre_px
+        centre = stereo_matched_centre(views[other][1], source, image, dets[idx], centre=source_centre)
+        if centre is None:
+            return False
+        old = dets[idx]
+        shift = (centre[0] - old.centre_px[0], centre[1] - old.centre_px[1])
+        if max_shift_px is not None and math.hypot(*shift) > max_shift_px:
+            return False
+        new = replace(old, centre_px=centre, box=(old.box[0] + shift[0], old.box[1] + shift[1], old.box[2], old.box[3]))
+        if refine and self.refine_centres:
+            if source.contour is not None:  # the source's outline where the match put it, for blob_centre
+                moved_by = np.array([centre[0] - source_centre[0], centre[1] - source_centre[1]])
+                new = replace(new, contour=np.asarray(source.contour, float) + moved_by)
+            centre = blob_centre(image, new)
+        else:
             self._plain.add(id(new))
+        if tracked:
             self._from_tracker.add(id(new))
-            dets[idx] = new
-            rect[idx] = self.geometry.rectify_points(moved, np.array([centre], dtype=float))[0]
+        self._keep.append(new)  # ids in the sets above stay this frame's
+        dets[idx] = new
+        rect[idx] = self.geometry.rectify_points(moved, np.array([centre], dtype=float))[0]
+        return True
 
     def rectify(self, side: str, detections: Sequence[Detection], image: Optional[np.ndarray] = None) -> np.ndarray:
         """Rectified centres (N, 2) of raw-image detections in ``side`` (blobs refined sub-pixel
@@ -831,12 +870,43 @@ class StereoObjectPerception:
             track.trackers[side] = tracker
 
     # --- one frame ------------------------------------------------------------------------
+    @property
+    def alternating(self) -> bool:
+        """Between full searches, the detectors run in one view a frame, left and right in turn
+        (``alternate_views``; None: when every detector is heavy — a network a view — and neither
+        trackers nor ROI search are on). The other view's boxes are the tracks' predicted boxes,
+        placed by matching the searched view's patch of each object (``stereo_matched_centre``)."""
+        if self.tracker is not None or self.roi_search:
+            return False
+        if self.alternate_views is not None:
+            return self.alternate_views
+        return bool(self.detectors) and all(getattr(d, "heavy", False) for d in self.detectors)
+
+    def _predicted_view(self, side: str, t: float) -> list[Detection]:
+        """Each confirmed track's predicted box in ``side`` at ``t`` as a stand-in detection (to be
+        placed by ``_stereo_match_trackers``; dropped where it cannot be)."""
+        out = []
+        for track in self.tracks.values():
+            box = track.predicted_box(side, t)
+            if box is None or track.missed:
+                continue
+            x, y, w, h = (float(v) for v in box)
+            d = Detection(kind=track.kind, label=track.label, score=track.score, box=(x, y, w, h),
+                          centre_px=(x + w / 2.0, y + h / 2.0), radius_px=track.view[side][5])
+            self._plain.add(id(d))
+            self._from_tracker.add(id(d))
+            self._predicted[id(d)] = d
+            out.append(d)
+        return out
+
     def _search_mode(self) -> str:
-        """"full", "roi" or "none" (trackers only) for the next frame."""
+        """"full", "roi", "one" (alternate views) or "none" (trackers only) for the next frame."""
         unsettled = not self.tracks or bool(self.tentative) or any(tr.missed > 0 for tr in self.tracks.values())
         if (self.tracker is not None and self.detect_every > 1 and not unsettled
                 and self._since_detect + 1 < self.detect_every):
             return "none"
+        if self.alternating:  # both views while a track is new or missed (until it is dropped)
+            return "full" if unsettled or self._since_full + 1 >= self.full_frame_every else "one"
         if not self.roi_search or unsettled or self._since_full + 1 >= self.full_frame_every:
             return "full"
         return "roi"
@@ -855,6 +925,8 @@ class StereoObjectPerception:
         self.frames += 1
         self._plain.clear()
         self._from_tracker.clear()
+        self._predicted.clear()
+        self._keep.clear()
         t_right = t + float(frame.skew_s)
         images = {"left": frame.left, "right": frame.right}
         times = {"left": t, "right": t_right}
@@ -869,6 +941,10 @@ class StereoObjectPerception:
                 cut = cut or cut_here
             if cut:
                 mode = "full"  # a blob cut by its window: this frame gets a full search after all
+        if mode == "one":
+            searched, other = "left", "right"
+            dets[searched] = self.detect(images[searched])
+            dets[other] = self._predicted_view(other, times[other])
         if mode == "full":
             dets = {side: self.detect(images[side]) for side in SIDES}
             self._since_full = 0
@@ -900,6 +976,16 @@ class StereoObjectPerception:
         pairs = self.match(left, right, rect_l, rect_r)
         if self._from_tracker and pairs:
             self._stereo_match_trackers(pairs, left, right, frame, rect_l, rect_r)
+            if self._predicted:  # a predicted box the searched view's patch did not place: no pair
+                pairs = [p for p in pairs if id(left[p[0]]) not in self._predicted and id(right[p[1]]) not in self._predicted]
+        if mode == "full" and pairs and self.alternating:
+            # a full search's right boxes are placed from the left patch too (when that moves them
+            # little): measured as on the frames between, a box-only detector's objects do not
+            # step in depth at every full search (their velocity would: 32 against 11 mm/s p50)
+            views = {"left": (left, frame.left, rect_l), "right": (right, frame.right, rect_r)}
+            for i, j, _ in pairs:
+                self._place_by_match(views, "right", j, left[i], refine=True, max_shift_px=FULL_PLACE_MAX_PX,
+                                     tracked=False)
 
         out: list[ObjectObservation] = []
         assignment = self._associate(t, t_right, pairs, left, right, rect_l, rect_r) if pairs else []
