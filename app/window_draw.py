@@ -17,7 +17,7 @@ from widgets.camera_view import MarkerOverlay, ObjectOverlay
 COMPACT_VIEW_PX = 420  # narrower camera views label markers by id and objects by id and name only
 MAX_REDRAW_INTERVAL_MS = 200.0  # the pacer never draws fewer than 5 times a second
 PACER_PERIOD_S = 1.0  # the pacer decides once a second, from that second's draws and results
-SLOWDOWN_MAX = 2.0  # draws taking over twice their CPU time in wall time: the CPU (or GIL) is contended
+SLOWDOWN_MAX = 1.5  # draws taking over 1.5x their CPU time in wall time: the CPU (or GIL) is contended (a Pi 5 core's budget gives ~1.85)
 LOOP_BEHIND = 0.93  # the loop below this share of the camera's frame rate needs the CPU the draws take
 LOOP_KEEPS_UP = 0.98  # … at or above it, the draws may come back towards the display rate
 PACER_GROW_MAX, PACER_SHRINK = 2.0, 0.75  # interval factors per decision: back off fast, return surely

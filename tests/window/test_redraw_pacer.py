@@ -51,6 +51,15 @@ def test_starved_draws_with_the_loop_behind_stretch_the_interval_up_to_its_cap()
     assert pacer.interval_ms == MAX_REDRAW_INTERVAL_MS  # never fewer than 5 draws a second
 
 
+def test_draws_slowed_as_in_a_pi_5_cores_budget_with_the_loop_behind_stretch_the_interval():
+    """Held to 0.54 of a core (a Pi 5 core) the draws took ~1.85x their CPU time in wall time and
+    the pacer kept drawing 19 frames a second while the loop fell to 23 fps."""
+    clocks = TickingClocks(wall_s=0.0185, cpu_s=0.01)
+    pacer = RedrawPacer(REDRAW_INTERVAL_MS, 30.0, clock=clocks.wall, cpu_clock=clocks.cpu)
+    draw_seconds(pacer, clocks, 5.0, loop_at(23.0))
+    assert pacer.interval_ms > REDRAW_INTERVAL_MS
+
+
 def test_free_draws_or_a_loop_that_keeps_up_bring_the_display_rate_back():
     clocks = TickingClocks(wall_s=0.05, cpu_s=0.01)
     pacer = RedrawPacer(REDRAW_INTERVAL_MS, 30.0, clock=clocks.wall, cpu_clock=clocks.cpu)
