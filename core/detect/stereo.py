@@ -601,6 +601,7 @@ class StereoObjectPerception:
         # this frame's boxes predicted for the view not searched, by id() (held: their ids stay theirs)
         self._predicted: dict[int, Detection] = {}
         self._keep: list[Detection] = []  # detections made this frame whose ids the sets above hold
+        self._placed: set = set()  # id() of boxes placed by a patch match: not a detector's whole blob (no extent)
 
     def reset(self) -> None:
         """Forget every track (ids start again at 1)."""
@@ -665,6 +666,7 @@ class StereoObjectPerception:
             self._plain.add(id(new))
         if tracked:
             self._from_tracker.add(id(new))
+        self._placed.add(id(new))
         self._keep.append(new)  # ids in the sets above stay this frame's
         dets[idx] = new
         rect[idx] = self.geometry.rectify_points(moved, np.array([centre], dtype=float))[0]
@@ -927,6 +929,7 @@ class StereoObjectPerception:
         self._from_tracker.clear()
         self._predicted.clear()
         self._keep.clear()
+        self._placed.clear()
         t_right = t + float(frame.skew_s)
         images = {"left": frame.left, "right": frame.right}
         times = {"left": t, "right": t_right}
@@ -996,8 +999,8 @@ class StereoObjectPerception:
                 continue  # a fragment of an object measured this frame
             updated.add(track.key)
             obs = self._measure(track, t, t_right, frame.skew_s, left[i], right[j], rect_l[i], rect_r[j])
-            track.note_view("left", t, left[i], id(left[i]) not in self._plain)
-            track.note_view("right", t_right, right[j], id(right[j]) not in self._plain)
+            track.note_view("left", t, left[i], id(left[i]) not in self._plain and id(left[i]) not in self._placed)
+            track.note_view("right", t_right, right[j], id(right[j]) not in self._plain and id(right[j]) not in self._placed)
             if not track.confirmed and track.hits >= self.min_hits:
                 self._confirm(track)
                 obs = _with_id(obs, track.object_id)
