@@ -38,7 +38,7 @@ of the object matches (``stereo_matched_centre``; a blob's outline moved there g
 sub-pixel centre). A full search's right boxes are placed so too when that moves them ≤
 FULL_PLACE_MAX_PX, so an object's depth is measured the same way on every frame. On the objects
 run (desk detector, 45 s): half the network passes, moving objects' 3D error p95 9.7 → 4.2 mm,
-velocity error p50 15 → 12 mm/s, no id switch.
+velocity error p50 15 → 11 mm/s, no id switch.
 
 Trackers (``tracker`` = "kcf", "csrt", "mil", "mosse"): each confirmed track runs a
 ``core.detect.tracking.ObjectTracker`` per view, seeded from its detection, re-seeded from the
