@@ -623,12 +623,12 @@ class StereoObjectPerception:
         return list(self.tracks.values()) + list(self.tentative.values())
 
     # --- geometry -------------------------------------------------------------------------
-    def _stereo_match_trackers(self, pairs, left: list, right: list, frame: StereoFrame,
-                               rect_l: np.ndarray, rect_r: np.ndarray) -> None:
-        """Re-place each paired view whose box came from its tracker by finding the other view's
-        patch of the object near it (``stereo_matched_centre``; both from trackers: the right one
-        is re-placed from the left). Updates ``left``/``right`` and their rectified centres."""
-        views = {"left": (left, frame.left, rect_l), "right": (right, frame.right, rect_r)}
+    def _stereo_match_trackers(self, pairs, views: dict) -> None:
+        """Re-place each paired view whose box came from its tracker (or was predicted) by finding
+        the other view's patch of the object near it (``_place_by_match``; both from trackers: the
+        right one is re-placed from the left). ``views``: side → (detections, image, rectified
+        centres), updated in place."""
+        left, right = views["left"][0], views["right"][0]
         for i, j, *_ in pairs:
             for moved, idx, source in (("right", j, left[i]), ("left", i, right[j])):
                 if id(views[moved][0][idx]) in self._from_tracker:
@@ -890,7 +890,7 @@ class StereoObjectPerception:
         out = []
         for track in self.tracks.values():
             box = track.predicted_box(side, t)
-            if box is None or track.missed:
+            if box is None:  # (no track is missed on a frame that searches one view)
                 continue
             x, y, w, h = (float(v) for v in box)
             d = Detection(kind=track.kind, label=track.label, score=track.score, box=(x, y, w, h),
@@ -977,17 +977,17 @@ class StereoObjectPerception:
         rect_l = self.rectify("left", left, frame.left)
         rect_r = self.rectify("right", right, frame.right)
         pairs = self.match(left, right, rect_l, rect_r)
+        placing = {"left": (left, frame.left, rect_l), "right": (right, frame.right, rect_r)}  # for _place_by_match
         if self._from_tracker and pairs:
-            self._stereo_match_trackers(pairs, left, right, frame, rect_l, rect_r)
+            self._stereo_match_trackers(pairs, placing)
             if self._predicted:  # a predicted box the searched view's patch did not place: no pair
                 pairs = [p for p in pairs if id(left[p[0]]) not in self._predicted and id(right[p[1]]) not in self._predicted]
         if mode == "full" and pairs and self.alternating:
             # a full search's right boxes are placed from the left patch too (when that moves them
             # little): measured as on the frames between, a box-only detector's objects do not
             # step in depth at every full search (their velocity would: 32 against 11 mm/s p50)
-            views = {"left": (left, frame.left, rect_l), "right": (right, frame.right, rect_r)}
             for i, j, _ in pairs:
-                self._place_by_match(views, "right", j, left[i], refine=True, max_shift_px=FULL_PLACE_MAX_PX,
+                self._place_by_match(placing, "right", j, left[i], refine=True, max_shift_px=FULL_PLACE_MAX_PX,
                                      tracked=False)
 
         out: list[ObjectObservation] = []
