@@ -522,8 +522,10 @@ def run_assist_window(size: tuple[int, int] = (800, 480), seed: int = 0, vibrati
     unless asked for on purpose). ``size``: the largest screen shown full screen (a bigger one gets
     a maximised window)."""
     from app.startup import GuiThreadGarbage, make_app, run_until_quit
+    from core.cpu_budget import fit_opencv_threads
 
     app = make_app()
+    fit_opencv_threads()  # as DeskSession.create: no spinning pool under a CPU quota
     window = build_assist_window(seed, vibration, hand_camera, switches, depth, bridge_url, passing_hand, detector)
     app.aboutToQuit.connect(window.stop)
     garbage = GuiThreadGarbage(app)  # collections only in the GUI thread (see app/startup.py)

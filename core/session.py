@@ -13,6 +13,7 @@ from typing import Optional
 import numpy as np
 
 from core.clock import SimClock, WallClock
+from core.cpu_budget import fit_opencv_threads
 from core.detect.registry import make_detector, parse_detector_list
 from core.detect.stereo import StereoObjectPerception
 from core.devices import open_bridge
@@ -168,6 +169,7 @@ class DeskSession:
     @classmethod
     def create(cls, options: SessionOptions) -> "DeskSession":
         options.validate()
+        fit_opencv_threads()  # a CPU quota below the cores OpenCV sees: its pool would only spin (core.cpu_budget)
         clock = SimClock() if options.simulated_clock else WallClock()
         profile = load_profile(options.robot)
         kinematics = build_kinematics(profile)
