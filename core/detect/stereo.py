@@ -117,6 +117,11 @@ class ObjectObservation:
 # box comes from its tracker, it is re-placed by finding the other view's patch of the object
 # near it (normalised cross-correlation, sub-pixel): the disparity is then measured, not the
 # difference of two trackers' errors.
+# alternating views: a track missed this many frames in a row gets both views searched on each;
+# after that it is hidden (behind the arm, a hand) and the periodic full searches look for it
+# (the left view's search finds it on the frames between, where its predicted right box is placed)
+ALTERNATE_MISSED_FULL = 2
+PREDICTED_VIEW_GATE_PX = 60.0  # a searched view's detection this near a track's predicted box (or 2 box sizes) is its
 STEREO_MATCH_PX = 6  # the search around the tracker's box, each way
 STEREO_MATCH_MIN_NCC = 0.6  # a weaker match leaves the tracker's box as it was
 
@@ -133,8 +138,9 @@ def stereo_matched_centre(template_image: np.ndarray, template: Detection, image
                           centre: Optional[tuple[float, float]] = None) -> Optional[tuple[float, float]]:
     """Where ``template``'s centre (a detection in ``template_image``; ``centre`` when given, e.g.
     its sub-pixel blob centre) is in ``image``: its patch looked for within ``margin_px`` of
-    ``guess``'s box (the other view's tracker box), to a fraction of a pixel. None when the patch
-    is cut by an image border or matches too weakly."""
+    ``guess``'s box (the other view's tracker box), to a fraction of a pixel. The search area is
+    cut to the image: an object near its border is still found. None when the patch is cut by its
+    image's border, the area left is smaller than it, or it matches too weakly."""
     # the whole box: a plain ball's only texture is its outline against the desk (its middle
     # alone matched 3x worse)
     x, y, w, h = (int(round(v)) for v in template.box)
@@ -142,9 +148,10 @@ def stereo_matched_centre(template_image: np.ndarray, template: Detection, image
     if w < 4 or h < 4 or x < 0 or y < 0 or x + w > W or y + h > H:
         return None
     gx, gy = (int(round(v)) for v in guess.box[:2])
-    x0, y0 = gx - margin_px, gy - margin_px
-    x1, y1 = gx + w + margin_px, gy + h + margin_px
-    if x0 < 0 or y0 < 0 or x1 > image.shape[1] or y1 > image.shape[0]:
+    # the search area, cut to the image (an object near the border is still found inside it)
+    x0, y0 = max(gx - margin_px, 0), max(gy - margin_px, 0)
+    x1, y1 = min(gx + w + margin_px, image.shape[1]), min(gy + h + margin_px, image.shape[0])
+    if x1 - x0 < w or y1 - y0 < h:
         return None
     patch = cv2.cvtColor(template_image[y:y + h, x:x + w], cv2.COLOR_BGR2GRAY)
     area = cv2.cvtColor(image[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
@@ -270,6 +277,8 @@ class _ObjectTrack:
         self.right_hist: collections.deque = collections.deque(maxlen=history)
         # per view: the last raw box seen (t, x, y, w, h, radius) and the sizes (w, h) of whole detections
         self.view: dict[str, Optional[tuple]] = {side: None for side in SIDES}
+        # the right view's centre minus the left view's at the last frame measured in both
+        self.stereo_offset: Optional[tuple[float, float]] = None
         self.extent: dict[str, collections.deque] = {side: collections.deque(maxlen=EXTENT_HISTORY) for side in SIDES}
         self.trackers: dict[str, object] = {side: None for side in SIDES}  # ObjectTracker per view
         # per view: the last image velocity and size with what they came from (the deques' end items,
@@ -600,6 +609,7 @@ class StereoObjectPerception:
         self._from_tracker: set = set()  # id() of this frame's tracker detections
         # this frame's boxes predicted for the view not searched, by id() (held: their ids stay theirs)
         self._predicted: dict[int, Detection] = {}
+        self._predicted_offset: dict[int, Optional[tuple[float, float]]] = {}  # their tracks' stereo_offset
         self._keep: list[Detection] = []  # detections made this frame whose ids the sets above hold
         self._placed: set = set()  # id() of boxes placed by a patch match: not a detector's whole blob (no extent)
 
@@ -633,23 +643,38 @@ class StereoObjectPerception:
             for moved, idx, source in (("right", j, left[i]), ("left", i, right[j])):
                 if id(views[moved][0][idx]) in self._from_tracker:
                     predicted = id(views[moved][0][idx]) in self._predicted
-                    self._place_by_match(views, moved, idx, source, refine=predicted, tracked=not predicted)
+                    guess = self._offset_guess(views[moved][0][idx], moved, source) if predicted else None
+                    self._place_by_match(views, moved, idx, source, refine=predicted, tracked=not predicted, guess=guess)
                     break
 
+    def _offset_guess(self, predicted: Detection, moved: str, source: Detection) -> Optional[Detection]:
+        """Where to look for ``source``'s patch in the predicted view: ``source``'s box moved by its
+        track's last stereo offset (the disparity changes little between frames; the view's own
+        motion prediction can be several px off for a rolling ball). None: no offset known."""
+        offset = self._predicted_offset.get(id(predicted))
+        if offset is None:
+            return None
+        sign = 1.0 if moved == "right" else -1.0
+        x, y, w, h = source.box
+        return replace(predicted, box=(x + sign * offset[0], y + sign * offset[1], w, h))
+
     def _place_by_match(self, views: dict, moved: str, idx: int, source: Detection, refine: bool = False,
-                        max_shift_px: Optional[float] = None, tracked: bool = True) -> bool:
+                        max_shift_px: Optional[float] = None, tracked: bool = True,
+                        guess: Optional[Detection] = None) -> bool:
         """Re-place ``views[moved]``'s detection ``idx`` (a tracker's or a predicted box) where
         ``source`` (the other view's detection of the object) finds its patch near it
         (``stereo_matched_centre``); False when it cannot (the detection stays). ``refine``: its
         centre is then the blob's sub-pixel centre in the placed box (``blob_centre``, as a
         detector's box gets: the patch match is biased by the background around the object),
         else the matched centre. Not when that would move it more than ``max_shift_px``.
-        ``tracked``: the placed detection counts as a tracker's (``from_tracker``)."""
+        ``tracked``: the placed detection counts as a tracker's (``from_tracker``). ``guess``: where
+        to search instead of around the detection itself (``_offset_guess``)."""
         other = "left" if moved == "right" else "right"
         dets, image, rect = views[moved]
         refined = self.refine_centres and id(source) not in self._plain
         source_centre = blob_centre(views[other][1], source) if refined else source.centre_px
-        centre = stereo_matched_centre(views[other][1], source, image, dets[idx], centre=source_centre)
+        centre = stereo_matched_centre(views[other][1], source, image, dets[idx] if guess is None else guess,
+                                       centre=source_centre)
         if centre is None:
             return False
         old = dets[idx]
@@ -884,20 +909,52 @@ class StereoObjectPerception:
             return self.alternate_views
         return bool(self.detectors) and all(getattr(d, "heavy", False) for d in self.detectors)
 
-    def _predicted_view(self, side: str, t: float) -> list[Detection]:
-        """Each confirmed track's predicted box in ``side`` at ``t`` as a stand-in detection (to be
-        placed by ``_stereo_match_trackers``; dropped where it cannot be)."""
+    def _predicted_view(self, side: str, t: float, searched: Sequence[Detection], t_searched: float) -> list[Detection]:
+        """Each confirmed track's box in ``side`` at ``t`` as a stand-in detection (to be placed by
+        ``_stereo_match_trackers``; dropped where it cannot be): where the searched view's detection
+        of it (same label, nearest its predicted box there, each used once) lies, moved by the
+        track's stereo offset — the disparity changes little from frame to frame, while a view's own
+        motion prediction can be far off for a rolling ball or one back from behind the arm — else
+        the track's predicted box in ``side``."""
+        searched_side = "left" if side == "right" else "right"
+        sign = 1.0 if side == "right" else -1.0
+        candidates = []
+        for track in self.tracks.values():
+            if track.stereo_offset is None:
+                continue
+            box = track.predicted_box(searched_side, t_searched)
+            if box is None:
+                continue
+            cx, cy = box[0] + box[2] / 2.0, box[1] + box[3] / 2.0
+            gate = max(PREDICTED_VIEW_GATE_PX, 2.0 * max(float(box[2]), float(box[3])))
+            for k, d in enumerate(searched):
+                if d.label == track.label:
+                    dist = math.hypot(d.centre_px[0] - cx, d.centre_px[1] - cy)
+                    if dist <= gate:
+                        candidates.append((dist, track.key, k))
+        found: dict[int, Detection] = {}
+        used = set()
+        for _, key, k in sorted(candidates):
+            if key not in found and k not in used:
+                found[key] = searched[k]
+                used.add(k)
         out = []
         for track in self.tracks.values():
             box = track.predicted_box(side, t)
-            if box is None:  # (no track is missed on a frame that searches one view)
+            if box is None:
                 continue
             x, y, w, h = (float(v) for v in box)
+            source = found.get(track.key)
+            if source is not None:  # the searched view's detection, moved by the stereo offset
+                ox, oy = track.stereo_offset
+                x = source.centre_px[0] + sign * ox - w / 2.0
+                y = source.centre_px[1] + sign * oy - h / 2.0
             d = Detection(kind=track.kind, label=track.label, score=track.score, box=(x, y, w, h),
                           centre_px=(x + w / 2.0, y + h / 2.0), radius_px=track.view[side][5])
             self._plain.add(id(d))
             self._from_tracker.add(id(d))
             self._predicted[id(d)] = d
+            self._predicted_offset[id(d)] = track.stereo_offset
             out.append(d)
         return out
 
@@ -907,7 +964,9 @@ class StereoObjectPerception:
         if (self.tracker is not None and self.detect_every > 1 and not unsettled
                 and self._since_detect + 1 < self.detect_every):
             return "none"
-        if self.alternating:  # both views while a track is new or missed (until it is dropped)
+        if self.alternating:  # both views while a track is new or just missed (ALTERNATE_MISSED_FULL frames)
+            unsettled = (not self.tracks or bool(self.tentative)
+                         or any(0 < tr.missed <= ALTERNATE_MISSED_FULL for tr in self.tracks.values()))
             return "full" if unsettled or self._since_full + 1 >= self.full_frame_every else "one"
         if not self.roi_search or unsettled or self._since_full + 1 >= self.full_frame_every:
             return "full"
@@ -928,6 +987,7 @@ class StereoObjectPerception:
         self._plain.clear()
         self._from_tracker.clear()
         self._predicted.clear()
+        self._predicted_offset.clear()
         self._keep.clear()
         self._placed.clear()
         t_right = t + float(frame.skew_s)
@@ -947,7 +1007,7 @@ class StereoObjectPerception:
         if mode == "one":
             searched, other = "left", "right"
             dets[searched] = self.detect(images[searched])
-            dets[other] = self._predicted_view(other, times[other])
+            dets[other] = self._predicted_view(other, times[other], dets[searched], times[searched])
         if mode == "full":
             dets = {side: self.detect(images[side]) for side in SIDES}
             self._since_full = 0
@@ -1001,6 +1061,7 @@ class StereoObjectPerception:
             obs = self._measure(track, t, t_right, frame.skew_s, left[i], right[j], rect_l[i], rect_r[j])
             track.note_view("left", t, left[i], id(left[i]) not in self._plain and id(left[i]) not in self._placed)
             track.note_view("right", t_right, right[j], id(right[j]) not in self._plain and id(right[j]) not in self._placed)
+            track.stereo_offset = (right[j].centre_px[0] - left[i].centre_px[0], right[j].centre_px[1] - left[i].centre_px[1])
             if not track.confirmed and track.hits >= self.min_hits:
                 self._confirm(track)
                 obs = _with_id(obs, track.object_id)

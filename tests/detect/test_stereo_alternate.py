@@ -51,17 +51,41 @@ def test_heavy_detectors_search_one_view_a_frame_and_measure_as_both_views_do(ri
     assert np.percentile(errors_one, 95) <= max(1.5 * np.percentile(errors_both, 95), 0.003)
 
 
-def test_a_missed_track_brings_both_views_back_until_it_is_found_or_dropped(rig, desk):  # noqa: F811
+def test_a_missed_track_brings_both_views_back_for_two_frames_then_the_left_view_finds_it(rig, desk):  # noqa: F811
     rng = np.random.default_rng(7)
     heavy = Heavy()
     perc = _perception(rig, heavy, full_frame_every=10)
-    per_frame = []
+    per_frame, red_ids = [], []
     for k in range(30):
-        balls = _moving(k) if not 12 <= k < 16 else _moving(k)[1:]  # the red ball gone for 4 frames
+        balls = _moving(k) if not 12 <= k < 18 else _moving(k)[1:]  # the red ball gone for 6 frames
         before = heavy.images
         obs = perc.process(_frame(rig, desk, k, balls, rng))
         per_frame.append(heavy.images - before)
+        red_ids.append({o.object_id for o in _tri(obs) if o.label.startswith("red")})
     assert per_frame[5:12].count(1) >= 5
-    assert per_frame[13:17] == [2, 2, 2, 2]  # red missed: both views (the frame it vanished was searched in one)
+    # red missed: both views on the next ALTERNATE_MISSED_FULL (2) frames (the frame it vanished
+    # was searched in one), then hidden: one view a frame again
+    assert per_frame[13:15] == [2, 2] and per_frame[15:18] == [1, 1, 1], per_frame
+    # back on frame 18, a one-view frame: the left view's search finds it, its predicted right box
+    # is placed by the patch match, and it keeps its id
+    assert per_frame[18] == 1 and red_ids[18] == red_ids[11] and len(red_ids[11]) == 1, (per_frame, red_ids)
     assert {o.label.split()[0] for o in _tri(obs)} == {"red", "blue", "green"}
     assert perc.alternate_views is None and not _perception(rig, heavy, alternate_views=False).alternating
+
+
+def test_a_stereo_match_near_the_image_border_searches_the_part_inside_it():
+    """The right view's search area is cut to the image: an object whose box lies just inside
+    the border is placed (it was refused when the area's margin crossed the border)."""
+    import cv2
+
+    from core.detect.base import Detection
+    from core.detect.stereo import stereo_matched_centre
+
+    rng = np.random.default_rng(3)
+    left = rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)
+    left = cv2.GaussianBlur(left, (5, 5), 1.5)
+    right = np.roll(left, -40, axis=1)  # the right view: everything 40 px to the left
+    template = Detection(kind="colour", label="x", score=1.0, box=(44.0, 30.0, 30.0, 30.0), centre_px=(59.0, 45.0))
+    guess = Detection(kind="colour", label="x", score=1.0, box=(2.0, 31.0, 30.0, 30.0), centre_px=(17.0, 46.0))
+    centre = stereo_matched_centre(left, template, right, guess)  # the margin reaches x = -4
+    assert centre is not None and abs(centre[0] - 19.0) < 0.1 and abs(centre[1] - 45.0) < 0.1, centre
