@@ -4,6 +4,7 @@ detector in a Raspberry Pi 4 core's budget). Same ids, 3D positions as close to 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from core.detect.colour import DEFAULT_COLOURS, HsvDetector, HsvParams
 from core.detect.stereo import StereoObjectPerception
@@ -28,11 +29,14 @@ def _perception(rig, detector, **kw) -> StereoObjectPerception:
     return StereoObjectPerception(rig.calibration(), rig.base_T_camera, [detector], min_hits=2, **kw)
 
 
-def test_heavy_detectors_search_one_view_a_frame_and_measure_as_both_views_do(rig, desk):  # noqa: F811
+@pytest.mark.parametrize("left_every", [1, 2])
+def test_heavy_detectors_search_one_view_a_frame_and_measure_as_both_views_do(rig, desk, left_every):  # noqa: F811
+    """left_every 1: the left view searched on every frame between the full searches; 2 (the
+    default): every other frame, its boxes following their patch on the frames between."""
     rng_a, rng_b = np.random.default_rng(6), np.random.default_rng(6)
     heavy = Heavy()
     both = _perception(rig, HsvDetector(HsvParams(colours=DEFAULT_COLOURS)))
-    one = _perception(rig, heavy, full_frame_every=10)
+    one = _perception(rig, heavy, full_frame_every=10, left_detect_every=left_every)
     assert one.alternating and not both.alternating  # an ordinary detector: both views every frame
     per_frame, errors_one, errors_both = [], [], []
     for k in range(60):
@@ -45,7 +49,11 @@ def test_heavy_detectors_search_one_view_a_frame_and_measure_as_both_views_do(ri
         errors_both += [np.linalg.norm(np.subtract(o.base_p, truth[o.label.split()[0]])) for o in a]
         errors_one += [np.linalg.norm(np.subtract(o.base_p, truth[o.label.split()[0]])) for o in b]
     assert per_frame[:2] == [2, 2]  # no tracks yet, then tentative ones: both views
-    assert per_frame.count(1) >= 45 and set(per_frame) <= {1, 2}, per_frame  # a full search every 10th frame
+    if left_every == 1:
+        assert per_frame.count(1) >= 45 and set(per_frame) <= {1, 2}, per_frame  # a full search every 10th frame
+    else:  # a full search every 10th frame, the left view on every other frame between
+        assert per_frame.count(0) >= 22 and per_frame.count(1) >= 22 and set(per_frame) <= {0, 1, 2}, per_frame
+        assert one.followed_frames == per_frame.count(0)
     print(f"one view a frame: 3D error p95 {np.percentile(errors_one, 95) * 1e3:.2f} mm "
           f"(both views {np.percentile(errors_both, 95) * 1e3:.2f} mm)")
     assert np.percentile(errors_one, 95) <= max(1.5 * np.percentile(errors_both, 95), 0.003)
@@ -54,7 +62,7 @@ def test_heavy_detectors_search_one_view_a_frame_and_measure_as_both_views_do(ri
 def test_a_missed_track_brings_both_views_back_for_two_frames_then_the_left_view_finds_it(rig, desk):  # noqa: F811
     rng = np.random.default_rng(7)
     heavy = Heavy()
-    perc = _perception(rig, heavy, full_frame_every=10)
+    perc = _perception(rig, heavy, full_frame_every=10, left_detect_every=1)
     per_frame, red_ids = [], []
     for k in range(30):
         balls = _moving(k) if not 12 <= k < 18 else _moving(k)[1:]  # the red ball gone for 6 frames
@@ -71,6 +79,27 @@ def test_a_missed_track_brings_both_views_back_for_two_frames_then_the_left_view
     assert per_frame[18] == 1 and red_ids[18] == red_ids[11] and len(red_ids[11]) == 1, (per_frame, red_ids)
     assert {o.label.split()[0] for o in _tri(obs)} == {"red", "blue", "green"}
     assert perc.alternate_views is None and not _perception(rig, heavy, alternate_views=False).alternating
+
+
+def test_a_box_its_patch_does_not_find_gets_the_left_view_searched(rig, desk):  # noqa: F811
+    """Following boxes by their patch between searches: a ball that jumps (further than the
+    search around its predicted box) is not followed wrongly — that frame's left view is searched."""
+    rng = np.random.default_rng(8)
+    heavy = Heavy()
+    perc = _perception(rig, heavy, full_frame_every=10)
+    per_frame = []
+    for k in range(16):
+        balls = _moving(k)
+        if k >= 12:  # the red ball jumps 4 cm on frame 12 and stays there
+            balls = [(balls[0][0], balls[0][1] + np.array([0.04, 0.0, 0.0]))] + balls[1:]
+        before = heavy.images
+        obs = perc.process(_frame(rig, desk, k, balls, rng))
+        per_frame.append(heavy.images - before)
+        if k >= 12:
+            red = [o for o in _tri(obs) if o.label.startswith("red")]
+            assert red and np.linalg.norm(np.subtract(red[0].base_p, balls[0][1])) < 0.01, (k, red)
+    assert per_frame[2:12].count(0) >= 3, per_frame  # followed frames before the jump
+    assert per_frame[12] >= 1, per_frame  # the jump: searched, not followed
 
 
 def test_a_stereo_match_near_the_image_border_searches_the_part_inside_it():
