@@ -348,7 +348,7 @@ class CameraView(QtWidgets.QWidget):
         while len(self._markers) < len(markers):
             self._markers.append(_MarkerGraphics(self._view_box))
         for slot, marker in zip(self._markers, markers):
-            slot.show(marker)
+            slot.show(marker, force=self.redraw_unchanged)
             slot.set_visible(self._mode == "image")
         for slot in self._markers[len(markers):]:
             slot.hide()
