@@ -258,3 +258,97 @@ def test_after_a_frame_without_bounds_the_next_frames_are_drawn_on_a_clean_desk(
         fresh.set_camera_settings(CameraSettings(contrast=1.3))
         left, right, _ = desk.render(t, arm_at(k))
         assert_same_images((left, right), fresh.render(t, arm_at(k))[:2], f"frame {k} after the unbounded one")
+
+
+# -- shadows blurred side by side, the plush's hulls at once, still targets' visibility kept ------
+
+
+def test_shadow_masks_blurred_side_by_side_equal_a_blur_of_each(rig):
+    """Masks of every shape — tiny, thin, tall, wide, touching their edges, full of texture (what
+    BORDER_REFLECT_101 mirrors matters there) or empty — give the pixels of one GaussianBlur each."""
+    rng = np.random.default_rng(3)
+    for trial in range(300):
+        masks = []
+        for _ in range(int(rng.integers(1, 7))):
+            h = int(rng.integers(1, 15) if rng.random() < 0.2 else rng.integers(1, 400))
+            w = int(rng.integers(1, 15) if rng.random() < 0.2 else rng.integers(1, 500))
+            m = np.zeros((h, w), np.uint8)
+            for _ in range(int(rng.integers(0, 4))):
+                pts = rng.uniform(-10, max(h, w) + 10, (int(rng.integers(3, 8)), 2))
+                cv2.fillPoly(m, [np.round(pts * 16).astype(np.int32)], int(rng.integers(1, 256)), cv2.LINE_AA, 4)
+            if rng.random() < 0.1:
+                m[:] = rng.integers(0, 256, m.shape)
+            masks.append(m)
+        for k, (m, got) in enumerate(zip(masks, desk_module._blur_shadow_masks(masks))):
+            expected = cv2.GaussianBlur(m, (0, 0), desk_module.SHADOW_BLUR_PX)
+            assert got.shape == expected.shape and np.array_equal(got, expected), \
+                f"trial {trial}, mask {k} {m.shape}: up to {np.abs(got.astype(int) - expected).max()} levels off"
+
+
+def test_a_frames_moving_shadow_groups_are_blurred_in_one_call_per_view(rig, monkeypatch):
+    """The objects scene with the arm moving: the shadow groups that change (the arm's, the
+    balls', the plush's) are blurred side by side, one blur call a view, not one per group."""
+    desk = SimDesk(rig, scenario="objects", tool_marker=ToolMarker())
+    desk.render(0.0, arm_at(0))
+    calls, groups, real_blur, real_masks = [], [], cv2.GaussianBlur, desk_module._blur_shadow_masks
+    monkeypatch.setattr(cv2, "GaussianBlur", lambda src, *a, **kw: calls.append(src.shape) or real_blur(src, *a, **kw))
+    monkeypatch.setattr(desk_module, "_blur_shadow_masks", lambda masks: groups.append(masks) or real_masks(masks))
+    desk.render(1 / 30, arm_at(1))
+    assert [len(masks) for masks in groups] == [2, 2]  # per view, the groups that changed
+    shadow_calls = [shape for shape in calls if len(shape) == 2]  # (the finish blurs colour images)
+    r = desk_module.SHADOW_BLUR_REACH_PX
+    assert shadow_calls == [(max(m.shape[0] for m in masks) + r, sum(m.shape[1] + 2 * r for m in masks))
+                            for masks in groups]
+
+
+def plush_hulls_one_at_a_time(view, th) -> list:
+    """The plush's five hulls as _plush_item made them before they were placed at once."""
+    a, b = th.radius_m, th.height_m / 2
+    axes = np.array([a, b, b])
+    c, s = np.cos(th.yaw), np.sin(th.yaw)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    centre3 = np.array(th.centre)
+    local = desk_module._SPHERE * axes
+    to_cam = view.cam_pos - centre3
+    half = desk_module.LIGHT + to_cam / np.linalg.norm(to_cam)
+    n_local = R.T @ (half / np.linalg.norm(half))
+    spot_local = axes**2 * n_local / np.linalg.norm(axes * n_local)
+
+    def hull(scale, towards):
+        px, _ = view.project(centre3 + (towards * (1 - scale) + local * scale) @ R.T)
+        return cv2.convexHull(px.astype(np.float32))[:, 0, :].astype(np.float64)
+
+    return [hull(1.0, np.zeros(3))] + [hull(k, 0.75 * spot_local) for k in (0.86, 0.66, 0.42)] \
+        + [hull(0.14, 0.9 * spot_local)]
+
+
+def test_the_plushs_hulls_placed_and_projected_at_once_equal_one_hull_at_a_time(rig):
+    desk = SimDesk(rig, scenario="objects")
+    for t in np.linspace(0.0, 5.5, 12):  # it slides and turns
+        plush = next(th for th in desk.scene(t).things if th.kind == "plush")
+        for side in SIDES:
+            view = desk._views[side]
+            got = [sh.pts for sh in desk._plush_item(view, plush).shapes]
+            expected = plush_hulls_one_at_a_time(view, plush)
+            assert len(got) == 5 and all(np.array_equal(g, e) for g, e in zip(got, expected)), f"t={t:.2f} {side}"
+
+
+def test_a_still_targets_visibility_is_kept_while_the_same_items_may_cover_it(rig, monkeypatch):
+    """The objects scene frozen: the second frame masks no target (the first did: still things
+    overlap still things in a view). Moving the hand over the orange disc and away, every frame's
+    truth is a fresh desk's, and the disc's flag does change."""
+    desk = SimDesk(rig, scenario="objects")
+    masked, real_fill = [], desk_module._fill
+    monkeypatch.setattr(desk_module, "_fill",
+                        lambda img, pts, colour, aa=True: (masked.append(aa) if not aa else None) or real_fill(img, pts, colour, aa))
+    desk.truth(0.0, ARM)
+    first = len(masked)
+    desk.truth(0.0, ARM)
+    assert first > 0 and len(masked) == first
+    monkeypatch.setattr(desk_module, "_fill", real_fill)
+    seen = set()
+    for t in np.arange(4.5, 10.5, 0.25):  # the hand comes (5 s), hovers, goes (11 s)
+        truth = desk.truth(t, ARM)
+        assert truth == SimDesk(rig, scenario="objects").truth(t, ARM), f"t={t:.2f}"
+        seen.add(next(o.visible_left for o in truth.objects if o.label == "orange disc"))
+    assert seen == {True, False}
