@@ -413,6 +413,7 @@ class ArmTwin(TwinBase, QtWidgets.QWidget):
         for view in (self._top, self._side):
             view.target.setPen(pen)
             view.drawn_target = None  # drawn again in its new colour
+            view.target._deskarm_drawn = None  # (_set_points: even at the same place)
 
     def set_workspace(self, top_outline: Optional[np.ndarray],
                       side_outline: Optional[np.ndarray]) -> None:

@@ -205,8 +205,14 @@ class Chain:
         self._xy: tuple = (None, None)
 
     def setData(self, x, y) -> None:  # noqa: N802 (pyqtgraph's name)
+        """The points (cm); the very points already drawn are not set again (the measured arm
+        holding still while the commanded one moves: most frames)."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
         shown = len(x) > 0
+        drawn_x, drawn_y = self._xy
+        if (shown and drawn_x is not None and drawn_x.shape == x.shape and drawn_y.shape == y.shape
+                and np.array_equal(drawn_x, x) and np.array_equal(drawn_y, y)):
+            return
         self.curve.setData(x, y)
         self.scatter.setData(x, y)
         for part in (self.curve, self.scatter):  # an empty item is not painted at all
@@ -357,8 +363,16 @@ def _set_points(item: pg.ScatterPlotItem, x: np.ndarray, y: np.ndarray, **kwargs
     """
     if len(x) == 0 and not item.isVisible():
         return
+    drawn = getattr(item, "_deskarm_drawn", None)
+    # the very points and style already drawn (and nothing else has set the item's data since):
+    # the joints of an arm holding still, frame after frame
+    if (drawn is not None and drawn[3] is item.data and len(x) == len(drawn[0]) and len(y) == len(drawn[1])
+            and np.array_equal(drawn[0], x) and np.array_equal(drawn[1], y) and drawn[2] == kwargs
+            and item.isVisible() == (len(x) > 0)):
+        return
     item.setData(x, y, **kwargs)
     item.setVisible(len(x) > 0)
+    item._deskarm_drawn = (np.array(x, dtype=float), np.array(y, dtype=float), kwargs, item.data)
 
 
 def _set_curve(item: pg.PlotDataItem, x: np.ndarray, y: np.ndarray) -> None:

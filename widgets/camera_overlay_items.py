@@ -473,7 +473,9 @@ class _ObjectGraphics:
             closed = np.vstack([o.outline, o.outline[:1]])
             self.outline.setData(closed[:, 0], closed[:, 1])
         # a label with a position (the followed object in a small view) goes over the others
-        self.label_text.setZValue(DETAIL_LABEL_Z if "\n" in o.label else LABEL_Z)
+        z = DETAIL_LABEL_Z if "\n" in o.label else LABEL_Z
+        if self.label_text.zValue() != z:  # a z-value set calls back into Python (itemChange)
+            self.label_text.setZValue(z)
         self.object_id, self.box, self._shown, self.colour = o.object_id, o.box, o, colour
         self.outline.setVisible(True)
         return True
