@@ -449,14 +449,28 @@ def _item_box(it: _Item) -> tuple:
     fixed-point outlines), () when unbounded; its marker and textures report their own boxes."""
     if it.box is None:
         missing = [sh for sh in it.shapes if sh.fixed is None]
-        if missing:  # (rounded all at once: the same values as one outline at a time)
+        allf = None
+        if it.line_fixed is None and len(missing) == len(it.shapes) and len(it.shapes) + len(it.lines) > 1:
+            # a new item: its shapes' and lines' outlines rounded at once, and bounded at once
+            polys = [sh.pts for sh in missing] + [pts for pts, _, _ in it.lines]
+            allf = np.round(np.concatenate(polys) * 16.0).astype(np.int32)
+            i = 0
+            for sh in missing:
+                sh.fixed = allf[i:i + len(sh.pts)]
+                i += len(sh.pts)
+            it.line_fixed = []
+            for pts, _, _ in it.lines:
+                it.line_fixed.append(allf[i:i + len(pts)])
+                i += len(pts)
+        if missing and allf is None:  # (rounded all at once: the same values as one outline at a time)
             fixed = _fixed([sh.pts for sh in missing])
             for sh, f in zip(missing, fixed):
                 sh.fixed = f
         if it.line_fixed is None:
             it.line_fixed = _fixed([pts for pts, _, _ in it.lines])
-        outlines = [sh.fixed for sh in it.shapes] + it.line_fixed
-        allf = np.concatenate(outlines) if len(outlines) > 1 else outlines[0] if outlines else outlines
+        if allf is None:
+            outlines = [sh.fixed for sh in it.shapes] + it.line_fixed
+            allf = np.concatenate(outlines) if len(outlines) > 1 else outlines[0] if outlines else outlines
         if len(allf) == 0:
             it.box = (0, 0, 0, 0)  # nothing to paint
             return it.box
@@ -585,6 +599,8 @@ _HAND_OUTLINES = (
     + np.array([0.012, 0.0]),
 )
 _HAND_GAPS = tuple(((u, 0.105 - 0.004), (u, 0.045)) for u in (-0.0225, 0.0, 0.0225))
+_HAND_LOCAL = np.concatenate(_HAND_OUTLINES + tuple(np.array(gap) for gap in _HAND_GAPS))  # all at once
+_HAND_PART_LENGTHS = tuple(len(p) for p in _HAND_OUTLINES) + tuple(len(g) for g in _HAND_GAPS)
 
 
 class _View:
@@ -1228,18 +1244,22 @@ class SimDesk:
 
     def _hand_item(self, view: _View, hand: Hand) -> Optional[_Item]:
         pose = (hand.x, hand.y, hand.z, hand.yaw)
-        shapes = []
-        for outline in _HAND_OUTLINES:
-            px = view.project_polygon(self._local_to_base(pose, outline))
-            if px is not None:
-                shapes.append(_Shape(px, HAND_COLOUR))
+        # its outlines and the gaps between its fingers placed and projected at once (a row's
+        # arithmetic as alone: project_polygon's numbers), those crossing the near plane clipped
+        base = self._local_to_base(pose, _HAND_LOCAL)
+        P = view.P
+        h = base @ P[:, :3].T + P[:, 3]
+        front = (h[:, 2] >= NEAR_M).tolist()
+        px_all = h[:, :2] / h[:, 2:3]
+        pieces, i = [], 0
+        for n in _HAND_PART_LENGTHS:
+            k = i + n
+            pieces.append(px_all[i:k] if all(front[i:k]) else view.project_polygon(base[i:k]))
+            i = k
+        shapes = [_Shape(px, HAND_COLOUR) for px in pieces[:len(_HAND_OUTLINES)] if px is not None]
         if not shapes:
             return None
-        lines = []
-        for gap in _HAND_GAPS:
-            px = view.project_polygon(self._local_to_base(pose, np.array(gap)))
-            if px is not None and len(px) == 2:
-                lines.append((px, HAND_DARK, False))
+        lines = [(px, HAND_DARK, False) for px in pieces[len(_HAND_OUTLINES):] if px is not None and len(px) == 2]
         _, depth = view.project(np.array([[hand.x, hand.y, hand.z]]))
         return _Item(depth=float(depth[0]), shapes=shapes, lines=lines)
 
@@ -1302,10 +1322,13 @@ class SimDesk:
             bar = [np.array(hd.along(along, hd.bar_height_m + dz)) + k * across
                    for along in (-r, hd.length_m + r) for dz in (-r, r) for k in (-1.0, 1.0)]
             polys.append(self._dropped_hull(np.array(bar), on_desk))
-        for hand in st.hands:
-            pose = (hand.x, hand.y, hand.z, hand.yaw)
-            for outline in _HAND_OUTLINES:
-                polys.append(on_desk(self._local_to_base(pose, outline)))
+        n_outline = sum(_HAND_PART_LENGTHS[:len(_HAND_OUTLINES)])
+        for hand in st.hands:  # (its outlines placed at once: the same rows as one at a time)
+            flat = on_desk(self._local_to_base((hand.x, hand.y, hand.z, hand.yaw), _HAND_LOCAL[:n_outline]))
+            i = 0
+            for n in _HAND_PART_LENGTHS[:len(_HAND_OUTLINES)]:
+                polys.append(flat[i:i + n])
+                i += n
         if arm is not None and len(arm) >= 2:
             kept = self._arm_shadows_kept
             if kept is None or kept[0] != arm.tobytes():
@@ -1803,9 +1826,13 @@ class SimDesk:
                     dirty.append(box)
         if n_flat == len(items):
             self._draw_shadows(img, view, shadows3, dirty)
-        if canvas and bounded:
-            view.canvas_dirty = _merge_boxes(dirty, 0, img.shape[1], img.shape[0])
-        return img, dirty if bounded else None
+        if not bounded:
+            return img, None
+        # (merged once: the finish merges these, grown by the blur's reach, instead of them all)
+        dirty = _merge_boxes(dirty, 0, img.shape[1], img.shape[0])
+        if canvas:
+            view.canvas_dirty = dirty
+        return img, dirty
 
     def _finish(self, img: np.ndarray, t: float, side_index: int, view: Optional[_View] = None,
                 dirty: Optional[list] = None) -> np.ndarray:

@@ -352,3 +352,36 @@ def test_a_still_targets_visibility_is_kept_while_the_same_items_may_cover_it(ri
         assert truth == SimDesk(rig, scenario="objects").truth(t, ARM), f"t={t:.2f}"
         seen.add(next(o.visible_left for o in truth.objects if o.label == "orange disc"))
     assert seen == {True, False}
+
+
+def test_a_hands_outlines_and_shadows_placed_at_once_equal_one_at_a_time(rig):
+    """Hands across the views, one so near a camera that its outlines cross the near plane (those
+    are clipped as project_polygon clips them)."""
+    from core.sim.scenarios import Hand, SceneState
+
+    desk = SimDesk(rig, scenario="objects")
+    left = desk._views["left"]
+    hands = [Hand(0.1, 0.2, 0.1, 1.2), Hand(-0.2, 0.35, 0.05, -0.4), Hand(0.3, 0.1, 0.15, 3.0),
+             Hand(*left.cam_pos[:2], left.cam_pos[2] - 0.03, 0.3)]  # just below the left camera
+    clipped = 0
+    drop = np.array([desk_module.LIGHT[0] / desk_module.LIGHT[2], desk_module.LIGHT[1] / desk_module.LIGHT[2], 1.0])
+    for hand in hands:
+        pose = (hand.x, hand.y, hand.z, hand.yaw)
+        for view in desk._views.values():
+            outlines = [view.project_polygon(desk._local_to_base(pose, o)) for o in desk_module._HAND_OUTLINES]
+            gaps = [view.project_polygon(desk._local_to_base(pose, np.array(g))) for g in desk_module._HAND_GAPS]
+            clipped += any(p is not None and len(p) != len(o) for p, o in zip(outlines, desk_module._HAND_OUTLINES))
+            item = desk._hand_item(view, hand)
+            expected = [p for p in outlines if p is not None]
+            if not expected:
+                assert item is None
+                continue
+            assert len(item.shapes) == len(expected)
+            assert all(np.array_equal(sh.pts, p) for sh, p in zip(item.shapes, expected))
+            expected_lines = [p for p in gaps if p is not None and len(p) == 2]
+            assert len(item.lines) == len(expected_lines)
+            assert all(np.array_equal(line[0], p) for line, p in zip(item.lines, expected_lines))
+        shadows = desk._shadow_polygons(SceneState(hands=(hand,)), None)
+        expected = [o3 - o3[:, 2:3] * drop for o3 in (desk._local_to_base(pose, o) for o in desk_module._HAND_OUTLINES)]
+        assert len(shadows) == 3 and all(np.array_equal(s, e) for s, e in zip(shadows, expected))
+    assert clipped  # the near hand's outlines were clipped in a view
