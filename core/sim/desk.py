@@ -436,11 +436,12 @@ class _Item:
     visible_kept: Optional[tuple] = field(default=None, repr=False, compare=False)
     # a still thing's item (drawn again every frame) keeps the pixels under its box before and after
     # its shapes and lines were painted, (image shape, before, after): painted over the same pixels
-    # again, it pastes them (SimDesk._paint_shapes)
+    # again, it pastes them (SimDesk._paint_shapes); from its second painting on (_PAINTED_ONCE)
     keep_pixels: bool = field(default=False, repr=False, compare=False)
     kept: Optional[tuple] = field(default=None, repr=False, compare=False)
 
 
+_PAINTED_ONCE = ("painted once",)  # _Item.kept of an item painted once, not yet kept (SimDesk._paint_shapes)
 FIXED_LIMIT = 1 << 26  # fillPoly coordinates (1/16 px) beyond this: no bound is taken (NaN, near the near plane)
 
 
@@ -1773,12 +1774,17 @@ class SimDesk:
             x0, y0, x1, y1 = max(box[0], 0), max(box[1], 0), min(box[2], w), min(box[3], h)
             if x1 <= x0 or y1 <= y0:
                 return box  # off the image
-            roi = img[y0:y1, x0:x1]
             kept = it.kept
-            if kept is not None and kept[0] == img.shape and cv2.norm(kept[1], roi, cv2.NORM_INF) == 0:
-                roi[...] = kept[2]
-                return box
-            before = roi.copy()
+            if kept is None:
+                # painted for the first time: kept from the second on (a moving thing's or arm's
+                # item is made anew each frame: its pixels would be copied twice for nothing)
+                it.kept = _PAINTED_ONCE
+            else:
+                roi = img[y0:y1, x0:x1]
+                if kept is not _PAINTED_ONCE and kept[0] == img.shape and cv2.norm(kept[1], roi, cv2.NORM_INF) == 0:
+                    roi[...] = kept[2]
+                    return box
+                before = roi.copy()
         for sh in it.shapes:
             sh.fill(img)
         for (_, colour, closed), fixed in zip(it.lines, it.line_fixed):

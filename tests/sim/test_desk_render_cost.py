@@ -385,3 +385,28 @@ def test_a_hands_outlines_and_shadows_placed_at_once_equal_one_at_a_time(rig):
         expected = [o3 - o3[:, 2:3] * drop for o3 in (desk._local_to_base(pose, o) for o in desk_module._HAND_OUTLINES)]
         assert len(shadows) == 3 and all(np.array_equal(s, e) for s, e in zip(shadows, expected))
     assert clipped  # the near hand's outlines were clipped in a view
+
+
+def test_an_item_keeps_its_pixels_from_its_second_painting_on(rig):
+    """A moving thing's or moving arm's item is made anew each frame and painted once: nothing of
+    it is copied. A still thing's item keeps its pixels when painted a second time and pastes
+    them from the third on."""
+    desk = SimDesk(rig, scenario="objects")
+    view = desk._views["left"]
+
+    def items_of(t, arm):
+        st = desk.scene(t)
+        flat, solid = desk._cached_arm_items(view, arm)
+        things = {th.label: desk._cached_thing_item(view, th) for th in st.things}
+        return flat + solid, things
+
+    kept_after = []
+    for k in range(3):
+        t, arm = k / 30, arm_at(k)
+        desk.render(t, arm)
+        arm_items, things = items_of(t, arm)
+        assert all(it.kept is desk_module._PAINTED_ONCE for it in arm_items if it.shapes)  # (moved each frame)
+        assert things["red ball"].kept is desk_module._PAINTED_ONCE  # it rolls: a new item each frame
+        kept_after.append(things["green ball"].kept)
+    assert kept_after[0] is desk_module._PAINTED_ONCE
+    assert len(kept_after[1]) == 3 and kept_after[2] is kept_after[1]  # kept, then pasted
