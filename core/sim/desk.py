@@ -745,6 +745,7 @@ class SimDesk:
         self._thing_items: dict[int, dict] = {id(view): {} for view in self._views.values()}
         self._thing_shadows: dict = {}
         self._arm_items_kept: dict = {}  # id(view) → (arm key, flat items, 3D items): _cached_arm_items
+        self._arm_base_kept: dict = {}  # id(view) → (base point bytes, the base plate's item or None): _arm_items
         self._arm_shadows_kept: Optional[tuple] = None  # (arm bytes, shadow polygons): _shadow_polygons
         self._extent: Optional[tuple] = None  # desk texture extent for render_camera (the rig's, made on first use)
         # the printed square: black marker + white quiet zone (m)
@@ -1198,14 +1199,24 @@ class SimDesk:
     def _arm_items(self, view: _View, pts3: np.ndarray) -> tuple[list, list]:
         """(flat items, 3D items) for the arm's chain points (N, 3)."""
         p, d = view.project(pts3)
-        flat = []
-        base = np.column_stack([pts3[0, 0] + ARM_BASE_RADIUS_M * _CIRCLE32[:, 0],
-                                pts3[0, 1] + ARM_BASE_RADIUS_M * _CIRCLE32[:, 1],
-                                np.full(len(_CIRCLE32), pts3[0, 2])])
-        base_px = view.project_polygon(base)
-        if base_px is not None:
-            flat.append(_Item(depth=0.0, shapes=[_Shape(base_px, ARM_BASE_COLOUR)],
-                              lines=[(base_px, _shade(ARM_BASE_COLOUR, 1.6), True)], flat=True))
+        # the base plate on the desk stays where it is while the arm moves: in a rig view its item
+        # is made once (and so keeps its pixels)
+        rig_view = id(view) in self._thing_items
+        key = pts3[0].tobytes()
+        kept = self._arm_base_kept.get(id(view)) if rig_view else None
+        if kept is not None and kept[0] == key:
+            base_item = kept[1]
+        else:
+            base = np.column_stack([pts3[0, 0] + ARM_BASE_RADIUS_M * _CIRCLE32[:, 0],
+                                    pts3[0, 1] + ARM_BASE_RADIUS_M * _CIRCLE32[:, 1],
+                                    np.full(len(_CIRCLE32), pts3[0, 2])])
+            base_px = view.project_polygon(base)
+            base_item = None if base_px is None else _Item(
+                depth=0.0, shapes=[_Shape(base_px, ARM_BASE_COLOUR)],
+                lines=[(base_px, _shade(ARM_BASE_COLOUR, 1.6), True)], flat=True)
+            if rig_view:
+                self._arm_base_kept[id(view)] = (key, base_item)
+        flat = [] if base_item is None else [base_item]
         items = []
         mid3 = pts3[0] + 0.05 * LIGHT
         l0, _ = view.project(np.array([pts3[0], mid3]))
@@ -1231,13 +1242,14 @@ class SimDesk:
                       _Shape(quads[2], ARM_LINK_HIGHLIGHT)]
             items.append(_Item(depth=float(d[i] + d[i + 1]) / 2, shapes=shapes))
         last = len(pts3) - 1
+        towards_light = light_dir / (np.hypot(*light_dir) + 1e-9)
         for i in range(1, len(pts3)):
             if d[i] < NEAR_M:
                 continue
             tool = i == last
             rr = view.f * (ARM_TOOL_RADIUS_M if tool else ARM_JOINT_RADIUS_M) / d[i]
             colour = ARM_TOOL_COLOUR if tool else ARM_JOINT_COLOUR
-            hl = p[i] + light_dir / (np.hypot(*light_dir) + 1e-9) * rr * 0.3
+            hl = p[i] + towards_light * rr * 0.3
             shapes = [_Shape(p[i] + rr * _CIRCLE32, colour),
                       _Shape(hl + rr * 0.45 * _CIRCLE32, _shade(colour, 1.5) if tool else (80, 80, 86))]
             items.append(_Item(depth=float(d[i]) - 1e-4, shapes=shapes))

@@ -410,3 +410,21 @@ def test_an_item_keeps_its_pixels_from_its_second_painting_on(rig):
         kept_after.append(things["green ball"].kept)
     assert kept_after[0] is desk_module._PAINTED_ONCE
     assert len(kept_after[1]) == 3 and kept_after[2] is kept_after[1]  # kept, then pasted
+
+
+def test_a_moving_arms_base_plate_is_made_once_per_view_and_pastes_its_pixels(rig):
+    """The arm moves, its base stays on the desk: the base plate's item is the same each frame
+    (kept pixels pasted), the links and joints are new; every frame equals a fresh desk's."""
+    desk = SimDesk(rig, scenario="objects")
+    view = desk._views["left"]
+    bases, links = [], []
+    for k in range(3):
+        arm = ARM.copy()
+        arm[1:] += np.array([0.003 * k, 0.002 * k, 0.0])  # the base point stays, the rest moves
+        left, right, _ = desk.render(k / 30, arm)
+        flat, solid = desk._cached_arm_items(view, arm)
+        bases.append(flat[0])
+        links.append(solid[0])
+        assert_same_images((left, right), SimDesk(rig, scenario="objects").render(k / 30, arm)[:2], f"frame {k}")
+    assert bases[0] is bases[1] is bases[2] and links[0] is not links[1]
+    assert len(bases[2].kept) == 3  # (painted on the bare desk each time: kept, then pasted)
