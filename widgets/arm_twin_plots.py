@@ -13,6 +13,7 @@ import numpy as np
 from widgets._pyqtgraph import pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from widgets.camera_overlay_items import quiet_moves
 from widgets.arm_twin_geometry import (
     AIMED_COLOUR,
     COMMANDED_COLOUR,
@@ -309,6 +310,7 @@ class _ViewItems:
             label = pg.TextItem(color=MARKER_COLOUR, anchor=(0.0, 0.0),
                                 fill=pg.mkBrush(0, 0, 0, 140))
             label.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
+            quiet_moves(label)  # moved at every frame a marker moves: no Python call back
             label.setZValue(20)
             self.plot.addItem(label, ignoreBounds=True)
             self.marker_labels.append(label)

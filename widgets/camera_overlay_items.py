@@ -200,9 +200,21 @@ def shorter_texts(text: str, object_id: Optional[int] = None) -> list[str]:
 
 
 def _tight(item: pg.TextItem) -> None:
-    """A label's background hugs its text (Qt's default margin is 4 px on every side)."""
+    """A label's background hugs its text (Qt's default margin is 4 px on every side); a label
+    moved by its layout calls no Python back (:func:`quiet_moves`)."""
     item.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
     item.updateTextPos()
+    quiet_moves(item)
+
+
+def quiet_moves(item: pg.GraphicsObject) -> pg.GraphicsObject:
+    """``item`` (added to a view box with ``ignoreBounds=True``) moved or turned without Qt
+    calling its Python ``itemChange`` twice per ``setPos``: pyqtgraph asks for those calls only to
+    tell the view box its bounds changed, for an auto-range that ignores this item anyway
+    (a label layout moves a dozen labels a frame, each call a trip into Python for the GUI
+    thread). Parent and scene changes still call it (pyqtgraph follows its view with those)."""
+    item.setFlag(item.GraphicsItemFlag.ItemSendsGeometryChanges, False)
+    return item
 
 
 def _bold_label(point_size: float, fill_alpha: int) -> pg.TextItem:

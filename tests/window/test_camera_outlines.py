@@ -152,3 +152,23 @@ def test_a_still_marker_is_not_drawn_again_when_another_one_moves(qtbot, make_vi
         qtbot.mouseClick(view.graphics_view.viewport(), QtCore.Qt.MouseButton.LeftButton,
                          pos=view.graphics_view.viewport().mapFrom(view, point))
     assert still.args == [23]
+
+
+def test_labels_moved_by_the_layout_call_no_python_back(monkeypatch, make_view):
+    """A frame that moves every object moves every label (seen in drawn_labels) without Qt calling
+    a label's Python itemChange for the move (pyqtgraph's bounds notice, for an auto-range that
+    ignores labels anyway)."""
+    view = make_view()
+    view.set_objects(objects())
+    drain()
+    before = {label.key: label.rect for label in view.drawn_labels()}
+    moves = []  # what pyqtgraph's itemChange does on a move: tell the view box the bounds changed
+    original = pg.ViewBox.itemBoundsChanged
+    monkeypatch.setattr(pg.ViewBox, "itemBoundsChanged",
+                        lambda box, item: (moves.append(item), original(box, item))[1])
+    view.set_objects(objects(shift=5.0))
+    drain()
+    after = {label.key: label.rect for label in view.drawn_labels()}
+    assert set(after) == set(before) == set(range(1, 9))
+    assert all(after[k].left() > before[k].left() for k in after)  # every label followed its object
+    assert [item for item in moves if isinstance(item, pg.TextItem)] == []
