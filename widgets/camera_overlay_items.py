@@ -217,9 +217,47 @@ def quiet_moves(item: pg.GraphicsObject) -> pg.GraphicsObject:
     return item
 
 
+class _Label(pg.TextItem):
+    """A ``pg.TextItem`` that draws the same for less of the GUI thread per frame.
+
+    pyqtgraph's asks for its transform again at every repaint of its scene (a Python slot on
+    the scene's ``sigPrepareForPaint``, for every label in the view) and works its bounds out
+    in Python each of the several times Qt asks while painting. The transform only follows the
+    view's scale, and pyqtgraph already calls ``viewTransformChanged`` when that changes (and
+    ``setVisible`` when a hidden label shows); the bounds change only with the text, the font
+    or the view's scale, which all go through ``updateTextPos``: that is where they are dropped.
+    """
+
+    _rect: Optional[QtCore.QRectF] = None
+
+    def updateTextPos(self) -> None:  # noqa: N802 (pyqtgraph's name)
+        super().updateTextPos()
+        if self._rect is not None:
+            self.prepareGeometryChange()
+            self._rect = None
+
+    def boundingRect(self) -> QtCore.QRectF:  # noqa: N802 (Qt override)
+        if self._rect is None:
+            self._rect = pg.TextItem.boundingRect(self)
+        return QtCore.QRectF(self._rect)
+
+    def paint(self, p: QtGui.QPainter, *args) -> None:
+        """pyqtgraph's paint (its background), without the per-repaint transform check."""
+        scene = self.scene()
+        if scene is not self._lastScene:  # as pyqtgraph's: the first paint in a scene
+            self._lastScene = scene
+            self.updateTransform()
+            p.setTransform(self.sceneTransform())
+        if self.border.style() != QtCore.Qt.PenStyle.NoPen or self.fill.style() != QtCore.Qt.BrushStyle.NoBrush:
+            p.setPen(self.border)
+            p.setBrush(self.fill)
+            p.setRenderHint(QtGui.QPainter.RenderHint.Antialiasing, True)
+            p.drawPolygon(self.textItem.mapToParent(self.textItem.boundingRect()))
+
+
 def _bold_label(point_size: float, fill_alpha: int) -> pg.TextItem:
     """A white bold label of ``point_size`` on a black background of ``fill_alpha``, hugging its text."""
-    item = pg.TextItem(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, fill_alpha))
+    item = _Label(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, fill_alpha))
     font = QtGui.QFont()
     font.setPointSizeF(point_size)
     font.setBold(True)
@@ -392,8 +430,7 @@ class _MarkerGraphics:
         self.view_box = view_box
         self.outline = _Outline(_OutlineLayer.of(view_box, MARKER_Z))
         self.id_text = _bold_label(MARKER_ID_PT, 150)
-        self.label_text = pg.TextItem(anchor=(0.0, 0.0), color="w",
-                                      fill=pg.mkBrush(0, 0, 0, 150))
+        self.label_text = _Label(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 150))
         _tight(self.label_text)
         for item in (self.id_text, self.label_text):
             item.setZValue(LABEL_Z)

@@ -172,3 +172,37 @@ def test_labels_moved_by_the_layout_call_no_python_back(monkeypatch, make_view):
     assert set(after) == set(before) == set(range(1, 9))
     assert all(after[k].left() > before[k].left() for k in after)  # every label followed its object
     assert [item for item in moves if isinstance(item, pg.TextItem)] == []
+
+
+def test_a_new_frame_repaints_the_labels_without_asking_each_for_its_transform(qtbot, monkeypatch, make_view):
+    """pyqtgraph's TextItem asks for its transform at every repaint of its scene; a camera view's
+    labels follow the view's scale when it changes instead (and look the same: the pixel tests)."""
+    asked = []
+    original = pg.TextItem.updateTransform
+    monkeypatch.setattr(pg.TextItem, "updateTransform",
+                        lambda self, *a, **k: (asked.append(self), original(self, *a, **k))[1])
+    view = make_view()
+    view.set_overlays(markers(), objects())
+    drain()
+    paints = []
+    viewport = view.graphics_view.viewport()
+
+    class PaintCount(QtCore.QObject):
+        def eventFilter(self, obj, event):  # noqa: N802 (Qt override)
+            if event.type() == QtCore.QEvent.Type.Paint:
+                paints.append(obj)
+            return False
+
+    counter = PaintCount()
+    viewport.installEventFilter(counter)
+    try:
+        asked.clear()
+        view.show_image(np.zeros((480, 640, 3), np.uint8))  # a new frame: the view repaints
+        qtbot.waitUntil(lambda: len(paints) >= 1, timeout=TIMEOUT_MS)
+        assert asked == []
+        labels = [label for label in view.drawn_labels() if label.kind == "object"]
+        assert len(labels) == 8
+        view.resize(300, 240)  # another scale: the labels follow it
+        qtbot.waitUntil(lambda: len(asked) > 0, timeout=TIMEOUT_MS)
+    finally:
+        viewport.removeEventFilter(counter)
