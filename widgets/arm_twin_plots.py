@@ -13,7 +13,7 @@ import numpy as np
 from widgets._pyqtgraph import pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
-from widgets.camera_overlay_items import quiet_moves
+from widgets.camera_overlay_items import _Label, quiet_moves
 from widgets.arm_twin_geometry import (
     AIMED_COLOUR,
     COMMANDED_COLOUR,
@@ -307,9 +307,11 @@ class _ViewItems:
         """Label the marker dots at ``xy_cm`` (n,2) with their ids, laid out by
         :meth:`layout_labels`."""
         while len(self.marker_labels) < len(ids):
-            label = pg.TextItem(color=MARKER_COLOUR, anchor=(0.0, 0.0),
-                                fill=pg.mkBrush(0, 0, 0, 140))
+            # a label that asks for its transform only when the view's scale changes, not at
+            # every repaint, and keeps its bounds (camera_overlay_items._Label)
+            label = _Label(color=MARKER_COLOUR, anchor=(0.0, 0.0), fill=pg.mkBrush(0, 0, 0, 140))
             label.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
+            label.updateTextPos()  # its bounds with the new margin
             quiet_moves(label)  # moved at every frame a marker moves: no Python call back
             label.setZValue(20)
             self.plot.addItem(label, ignoreBounds=True)

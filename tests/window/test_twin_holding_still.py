@@ -73,3 +73,33 @@ def test_the_measured_arm_holding_still_is_not_set_again_while_the_commanded_arm
     drain()
     assert all(len(c) == 1 for c in sets)
     assert twin.grab().toImage() == fresh.grab().toImage()
+
+
+def test_the_twins_marker_labels_follow_their_markers_without_a_transform_check_per_repaint(monkeypatch, make_twin):
+    """pyqtgraph's TextItem asks for its transform at every repaint of its scene; the twin's
+    marker labels follow the view's scale when it changes instead — and draw the same pixels as
+    a fresh twin's."""
+    from widgets._pyqtgraph import pg
+
+    asked = []
+    original = pg.TextItem.updateTransform
+    monkeypatch.setattr(pg.TextItem, "updateTransform",
+                        lambda self, *a, **k: (asked.append(self), original(self, *a, **k))[1])
+    twin, fresh = make_twin(), make_twin()
+    markers = {23: np.array([0.031, 0.152, 0.0]), 7: np.array([0.05, 0.15, 0.0])}
+    twin.set_markers(markers)
+    drain()
+    twin.grab()
+    asked.clear()
+    moved = {23: np.array([0.036, 0.152, 0.0]), 7: np.array([0.05, 0.16, 0.0])}
+    twin.set_markers(moved)  # the labels move with their markers
+    image = twin.grab().toImage()
+    assert asked == []
+    fresh.set_markers(moved)
+    drain()
+    assert image == fresh.grab().toImage()
+    twin.resize(380, 300)  # another scale: the labels follow it
+    fresh.resize(380, 300)
+    drain()
+    assert len(asked) > 0
+    assert twin.grab().toImage() == fresh.grab().toImage()
