@@ -436,7 +436,7 @@ class _MarkerGraphics:
             item.setZValue(LABEL_Z)
             view_box.addItem(item, ignoreBounds=True)
         self.marker_id: Optional[int] = None
-        self.polygon = QtGui.QPolygonF()
+        self._polygon: Optional[QtGui.QPolygonF] = None  # made when first asked for (a tap)
         self.box: Optional[Rect] = None  # the marker's bounding box (image px)
         self.label = ""  # the label the overlay asks for (the item may show less, or none)
         self._found: Optional[bool] = None  # the outline's pen and the id's colour are for this
@@ -460,17 +460,25 @@ class _MarkerGraphics:
             self.outline.setData(closed[:, 0], closed[:, 1])
             lo, hi = m.corners.min(axis=0), m.corners.max(axis=0)
             self.box = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
-            self.polygon = QtGui.QPolygonF([QtCore.QPointF(float(x), float(y)) for x, y in m.corners])
+            self._polygon = None
             self._corners = np.array(m.corners, dtype=float)
         self.outline.setVisible(True)
         self.marker_id = m.marker_id
 
+    @property
+    def polygon(self) -> QtGui.QPolygonF:
+        """The marker's outline (image px) for hit tests: made when a tap asks, not at every frame
+        the marker moves."""
+        if self._polygon is None:
+            corners = () if self._corners is None else self._corners
+            self._polygon = QtGui.QPolygonF([QtCore.QPointF(float(x), float(y)) for x, y in corners])
+        return self._polygon
+
     def hide(self) -> None:
         for item in (self.outline, self.id_text, self.label_text):
             item.setVisible(False)
-        self.marker_id = self.box = self._corners = None
+        self.marker_id = self.box = self._corners = self._polygon = None
         self.label = ""
-        self.polygon = QtGui.QPolygonF()
 
     def set_visible(self, visible: bool) -> None:
         """Outline only: the view's label layout shows the id and label it finds room for."""

@@ -125,7 +125,7 @@ def test_outlines_paint_the_pixels_a_plot_curve_item_per_outline_paints(make_vie
     assert drawn.graphics_view.grab().toImage() == b
 
 
-def test_a_still_marker_is_not_drawn_again_when_another_one_moves(qtbot, make_view):
+def test_a_still_marker_is_not_drawn_again_when_another_one_moves(qtbot, monkeypatch, make_view):
     view = make_view()
     view.set_markers(markers())
     drain()
@@ -138,15 +138,22 @@ def test_a_still_marker_is_not_drawn_again_when_another_one_moves(qtbot, make_vi
             return _original(*args, **kwargs)
 
         slot.outline.setData = counting
+    import widgets.camera_overlay_items as items
+
+    polygons = []  # hit-test polygons are made when a tap asks, not at every frame a marker moves
+    real_polygon = items.QtGui.QPolygonF
+    monkeypatch.setattr(items.QtGui, "QPolygonF", lambda *a: (polygons.append(a), real_polygon(*a))[1])
     view.set_markers(markers(shift=12.0))  # 50 moves, 23 and 7 lie still
     drain()
     assert calls == {50: 1}
+    assert polygons == []
     # a tap on the moved marker finds it where it is drawn now, one on a still one finds that one
     point = view.image_to_widget(512 + 14, 75)
     with qtbot.waitSignal(view.sigMarkerClicked, timeout=TIMEOUT_MS) as moved:
         qtbot.mouseClick(view.graphics_view.viewport(), QtCore.Qt.MouseButton.LeftButton,
                          pos=view.graphics_view.viewport().mapFrom(view, point))
     assert moved.args == [50]
+    assert len(polygons) >= 1
     point = view.image_to_widget(315, 315)
     with qtbot.waitSignal(view.sigMarkerClicked, timeout=TIMEOUT_MS) as still:
         qtbot.mouseClick(view.graphics_view.viewport(), QtCore.Qt.MouseButton.LeftButton,
