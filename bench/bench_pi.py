@@ -47,7 +47,9 @@ which rows are which. The issue's goal in the Pi 4 budget:
 30 fps with markers, ≥ 15 fps with one object detector, start-up to the first frame ≤ 5 s.
 
 Run alone: ``python -m bench.bench_pi [--quick|--full] [--root DIR] [--cases markers,hsv]
-[--budgets "Pi 4"]`` (``--root``: measure another checkout, e.g. ``git clone -q /work/main
+[--budgets "Pi 4"] [--repeat N]`` (``--repeat``: N window runs per case and budget, interleaved,
+their samples pooled and each run's median listed under its row: on a shared machine the host's
+load moves a run's figures by a third) (``--root``: measure another checkout, e.g. ``git clone -q /work/main
 /tmp/pi-root``, with this venv: the children run with ``cwd`` and ``PYTHONPATH`` = DIR). Prints
 ``make bench``'s table and the compact Pi table (``pi_table``). The window child is ``python
 bench/bench_pi.py --child window --seconds N -- <deskarm arguments>``.
@@ -245,9 +247,26 @@ def compile_sources(root: Path = REPO) -> None:
         compileall.compile_dir(lib, quiet=2, workers=0)  # quiet=2: templates that are not Python say nothing
 
 
-def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None) -> list[dict]:
+def pool_runs(runs: list[dict]) -> dict:
+    """Several window runs of one case and budget as one: their samples pooled, the median start-up,
+    the throttling counters summed, and ``run_fps`` — each run's median loop fps (the spread between
+    runs on a shared machine is wider than within one: the host's load comes and goes)."""
+    if len(runs) == 1:
+        return runs[0]
+    pooled = dict(runs[0])
+    for key in ("loop_fps", "drawn_fps", "latency_ms", "cpu_pct", "gui_pct"):
+        pooled[key] = [x for r in runs for x in (r.get(key) or [])]
+    pooled["first_frame_s"] = float(np.median([r["first_frame_s"] for r in runs]))
+    pooled["run_fps"] = [_med(r["loop_fps"]) for r in runs]
+    pooled["run_first_frame_s"] = [r["first_frame_s"] for r in runs]
+    pooled["throttled"] = {k: sum(r["throttled"].get(k, 0) for r in runs) for k in runs[0]["throttled"]}
+    return pooled
+
+
+def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None, repeat: int = 1) -> list[dict]:
     """Every (case, budget) pair: one dict with ``case``, ``budget``, ``fraction``, ``window`` and
-    ``headless`` (None for the assistive view). Budgets interleave within a case (same run, same load)."""
+    ``headless`` (None for the assistive view). Budgets interleave within a case (same run, same load).
+    ``repeat``: window runs per pair, pooled (``pool_runs``); the rounds interleave too."""
     from bench.cpu_quota import CpuQuotaUnavailable, available
 
     cases = list(cases or (ALL_CASES if not quick else CASES))
@@ -266,11 +285,15 @@ def measure_all(quick: bool = True, root: Path = REPO, cases=None, budgets=None)
             recording = Path(folder) / "objects"
             make_recording(recording, max(window_s, headless_s) + RECORD_EXTRA_S, root)
         for case in cases:
-            for name, fraction in budgets or PI_BUDGETS:
-                w = measure_window(case, fraction, window_s, root, recording)
+            pairs = list(budgets or PI_BUDGETS)
+            windows = {name: [] for name, _ in pairs}
+            for _ in range(max(1, int(repeat))):
+                for name, fraction in pairs:
+                    windows[name].append(measure_window(case, fraction, window_s, root, recording))
+            for name, fraction in pairs:
                 h = None if case == "assist" else measure_headless(case, fraction, headless_s, root, recording)
-                out.append({"case": case, "budget": name, "fraction": fraction, "window": w, "headless": h,
-                            "load": os.getloadavg()[0], "source": source_of(case)})
+                out.append({"case": case, "budget": name, "fraction": fraction, "window": pool_runs(windows[name]),
+                            "headless": h, "load": os.getloadavg()[0], "source": source_of(case)})
     return out
 
 
@@ -341,12 +364,15 @@ def pi_table(results: list[dict]) -> str:
         if r["budget"] == "Pi 4":
             fps_goal = GOALS.get(case)
             ok_fps = fps_goal is None or _med(w["loop_fps"]) >= fps_goal - 0.5
-            ok_start = w["first_frame_s"] <= FIRST_FRAME_GOAL_S
+            ok_start = w["first_frame_s"] <= FIRST_FRAME_GOAL_S  # (the median run's with --repeat)
             goal = (("" if fps_goal is None else f"{fps_goal:g} fps {'met' if ok_fps else 'MISSED'}, ")
                     + f"first frame ≤ {FIRST_FRAME_GOAL_S:g} s {'met' if ok_start else 'MISSED'}")
         lines.append(f"{case:11s} {r.get('source') or source_of(case):8s} {r['budget']:12s} {_med(w['loop_fps']):8.1f} {_med(w['drawn_fps']):6.1f} "
                      f"{lat:>15s} {_med(w['cpu_pct']):6.0f} {cpu_ms_per_frame(w):8.1f} {w['first_frame_s']:11.2f} "
                      f"{hfps:>12s} {hlat:>15s}  {goal}")
+        if w.get("run_fps"):
+            lines.append(f"{'':33s}runs' loop fps {' '.join(f'{x:.1f}' for x in w['run_fps'])}; first frame "
+                         f"{' '.join(f'{x:.2f}' for x in w['run_first_frame_s'])} s")
     lines.append("camera: sim = the simulator renders both views in the process (its cost is in the figures); "
                  "replay = a recording of the same scene, JPEG pairs decoded as a webcam's MJPEG frames are")
     return "\n".join(lines)
@@ -523,8 +549,9 @@ def main(argv: list[str]) -> int:
     if "--budgets" in argv:
         wanted = argv[argv.index("--budgets") + 1].split(",")
         budgets = [b for b in PI_BUDGETS if b[0] in wanted]
+    repeat = int(argv[argv.index("--repeat") + 1]) if "--repeat" in argv else 1
     t0 = time.perf_counter()
-    results = measure_all(quick="--full" not in argv, root=root, cases=cases, budgets=budgets)
+    results = measure_all(quick="--full" not in argv, root=root, cases=cases, budgets=budgets, repeat=repeat)
     print(format_table(results_to_rows(results)))
     print()
     print(pi_table(results))

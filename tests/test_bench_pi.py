@@ -139,3 +139,21 @@ def test_a_replay_case_runs_on_a_recording_made_in_the_same_run(tmp_path):
                 "load": 1.0, "source": "replay"}]
     table = bench_pi.pi_table(results)
     assert "replay" in table.splitlines()[2] and "camera" in table.splitlines()[0]
+
+
+def test_repeated_window_runs_pool_their_samples_and_the_table_lists_each_runs_median():
+    def run(fps, first):
+        return {"kind": "main", "timed_out": False, "window_s": 1.0, "first_frame_s": first, "loop_fps": fps,
+                "drawn_fps": [5.0] * len(fps), "latency_ms": [20.0], "cpu_pct": [29.0] * len(fps),
+                "gui_pct": [8.0] * len(fps), "throttled": {"nr_periods": 100, "nr_throttled": 60}}
+
+    runs = [run([10.0, 12.0, 11.0], 3.1), run([17.0, 18.0, 16.0], 2.9), run([15.0, 15.0, 16.0], 3.5)]
+    pooled = bench_pi.pool_runs(runs)
+    assert pooled["loop_fps"] == [10.0, 12.0, 11.0, 17.0, 18.0, 16.0, 15.0, 15.0, 16.0]
+    assert pooled["run_fps"] == [11.0, 17.0, 15.0] and pooled["first_frame_s"] == 3.1
+    assert pooled["throttled"] == {"nr_periods": 300, "nr_throttled": 180}
+    assert bench_pi.pool_runs(runs[:1]) is runs[0]  # one run: as it was
+    results = [{"case": "desk", "budget": "Pi 4", "fraction": 0.29, "window": pooled, "headless": None, "load": 1.0}]
+    table = bench_pi.pi_table(results)
+    assert "runs' loop fps 11.0 17.0 15.0; first frame 3.10 2.90 3.50 s" in table
+    assert " 15.0 " in table.splitlines()[2] and "15 fps met" in table  # the pooled median
