@@ -43,7 +43,7 @@ object matches (``stereo_matched_centre``). A full search's right boxes are plac
 moves them ≤ FULL_PLACE_MAX_PX, so an object's depth is measured the same way on every frame.
 Objects run, desk detector, 45 s on the simulated clock: 0.57 network passes a frame (both views on
 every frame: 2; the left view searched on every frame between full searches: 1.16), moving objects'
-3D error p50/p95 2.27/4.08 mm (both views every frame: 3.23/9.67), velocity error p50 4.3 mm/s
+3D error p50/p95 2.28/4.05 mm (both views every frame: 3.23/9.67), velocity error p50 4.4 mm/s
 (15.5), no id switch; a followed box is no worse than a searched one (the network's boxes jitter).
 
 Trackers (``tracker`` = "kcf", "csrt", "mil", "mosse"): each confirmed track runs a
@@ -169,6 +169,14 @@ def stereo_matched_centre(template_image: np.ndarray, template: Detection, image
     dy = _parabola_peak(score[py - 1, px], best, score[py + 1, px]) if 0 < py < score.shape[0] - 1 else 0.0
     cx, cy = template.centre_px if centre is None else centre
     return (x0 + px + dx + (cx - x), y0 + py + dy + (cy - y))
+
+
+def _centred_on(stand_in: Detection, source: Detection) -> Detection:
+    """A box of ``source``'s size centred where ``stand_in`` is: where ``stereo_matched_centre``
+    looks for ``source``'s patch (a predicted stand-in is the track's size, the patch the detection's)."""
+    w, h = source.box[2], source.box[3]
+    cx, cy = stand_in.centre_px
+    return replace(stand_in, box=(cx - w / 2.0, cy - h / 2.0, w, h))
 
 
 def _size(d: Detection) -> float:
@@ -623,7 +631,6 @@ class StereoObjectPerception:
         self._from_tracker: set = set()  # id() of this frame's tracker detections
         # this frame's boxes predicted for the view not searched, by id() (held: their ids stay theirs)
         self._predicted: dict[int, Detection] = {}
-        self._predicted_offset: dict[int, Optional[tuple[float, float]]] = {}  # their tracks' stereo_offset
         self._keep: list[Detection] = []  # detections made this frame whose ids the sets above hold
         self._placed: set = set()  # id() of boxes placed by a patch match: not a detector's whole blob (no extent)
 
@@ -658,20 +665,9 @@ class StereoObjectPerception:
             for moved, idx, source in (("right", j, left[i]), ("left", i, right[j])):
                 if id(views[moved][0][idx]) in self._from_tracker:
                     predicted = id(views[moved][0][idx]) in self._predicted
-                    guess = self._offset_guess(views[moved][0][idx], moved, source) if predicted else None
+                    guess = _centred_on(views[moved][0][idx], source) if predicted else None
                     self._place_by_match(views, moved, idx, source, refine=predicted, tracked=not predicted, guess=guess)
                     break
-
-    def _offset_guess(self, predicted: Detection, moved: str, source: Detection) -> Optional[Detection]:
-        """Where to look for ``source``'s patch in the predicted view: ``source``'s box moved by its
-        track's last stereo offset (the disparity changes little between frames; the view's own
-        motion prediction can be several px off for a rolling ball). None: no offset known."""
-        offset = self._predicted_offset.get(id(predicted))
-        if offset is None:
-            return None
-        sign = 1.0 if moved == "right" else -1.0
-        x, y, w, h = source.box
-        return replace(predicted, box=(x + sign * offset[0], y + sign * offset[1], w, h))
 
     def _place_by_match(self, views: dict, moved: str, idx: int, source: Detection, refine: bool = False,
                         max_shift_px: Optional[float] = None, tracked: bool = True,
@@ -683,7 +679,7 @@ class StereoObjectPerception:
         detector's box gets: the patch match is biased by the background around the object),
         else the matched centre. Not when that would move it more than ``max_shift_px``.
         ``tracked``: the placed detection counts as a tracker's (``from_tracker``). ``guess``: where
-        to search instead of around the detection itself (``_offset_guess``)."""
+        to search instead of around the detection itself (a box of ``source``'s size)."""
         other = "left" if moved == "right" else "right"
         dets, image, rect = views[moved]
         refined = self.refine_centres and id(source) not in self._plain
@@ -969,7 +965,6 @@ class StereoObjectPerception:
             self._plain.add(id(d))
             self._from_tracker.add(id(d))
             self._predicted[id(d)] = d
-            self._predicted_offset[id(d)] = track.stereo_offset
             out.append(d)
         return out
 
@@ -1045,7 +1040,6 @@ class StereoObjectPerception:
         self._plain.clear()
         self._from_tracker.clear()
         self._predicted.clear()
-        self._predicted_offset.clear()
         self._keep.clear()
         self._placed.clear()
         t_right = t + float(frame.skew_s)
