@@ -13,7 +13,7 @@ import numpy as np
 from widgets._pyqtgraph import pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
-from widgets.camera_overlay_items import _Label, quiet_moves
+from widgets.camera_overlay_items import SteadyLabel, hug_text
 from widgets.arm_twin_geometry import (
     AIMED_COLOUR,
     COMMANDED_COLOUR,
@@ -308,11 +308,9 @@ class _ViewItems:
         :meth:`layout_labels`."""
         while len(self.marker_labels) < len(ids):
             # a label that asks for its transform only when the view's scale changes, not at
-            # every repaint, and keeps its bounds (camera_overlay_items._Label)
-            label = _Label(color=MARKER_COLOUR, anchor=(0.0, 0.0), fill=pg.mkBrush(0, 0, 0, 140))
-            label.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
-            label.updateTextPos()  # its bounds with the new margin
-            quiet_moves(label)  # moved at every frame a marker moves: no Python call back
+            # every repaint, keeps its bounds and is moved without a Python call back
+            label = SteadyLabel(color=MARKER_COLOUR, anchor=(0.0, 0.0), fill=pg.mkBrush(0, 0, 0, 140))
+            hug_text(label, LABEL_MARGIN_PX)
             label.setZValue(20)
             self.plot.addItem(label, ignoreBounds=True)
             self.marker_labels.append(label)

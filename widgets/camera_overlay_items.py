@@ -199,10 +199,10 @@ def shorter_texts(text: str, object_id: Optional[int] = None) -> list[str]:
     return out
 
 
-def _tight(item: pg.TextItem) -> None:
+def hug_text(item: pg.TextItem, margin_px: float = LABEL_MARGIN_PX) -> None:
     """A label's background hugs its text (Qt's default margin is 4 px on every side); a label
     moved by its layout calls no Python back (:func:`quiet_moves`)."""
-    item.textItem.document().setDocumentMargin(LABEL_MARGIN_PX)
+    item.textItem.document().setDocumentMargin(margin_px)
     item.updateTextPos()
     quiet_moves(item)
 
@@ -217,7 +217,7 @@ def quiet_moves(item: pg.GraphicsObject) -> pg.GraphicsObject:
     return item
 
 
-class _Label(pg.TextItem):
+class SteadyLabel(pg.TextItem):
     """A ``pg.TextItem`` that draws the same for less of the GUI thread per frame.
 
     pyqtgraph's asks for its transform again at every repaint of its scene (a Python slot on
@@ -257,12 +257,12 @@ class _Label(pg.TextItem):
 
 def _bold_label(point_size: float, fill_alpha: int) -> pg.TextItem:
     """A white bold label of ``point_size`` on a black background of ``fill_alpha``, hugging its text."""
-    item = _Label(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, fill_alpha))
+    item = SteadyLabel(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, fill_alpha))
     font = QtGui.QFont()
     font.setPointSizeF(point_size)
     font.setBold(True)
     item.setFont(font)
-    _tight(item)
+    hug_text(item)
     return item
 
 
@@ -430,8 +430,8 @@ class _MarkerGraphics:
         self.view_box = view_box
         self.outline = _Outline(_OutlineLayer.of(view_box, MARKER_Z))
         self.id_text = _bold_label(MARKER_ID_PT, 150)
-        self.label_text = _Label(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 150))
-        _tight(self.label_text)
+        self.label_text = SteadyLabel(anchor=(0.0, 0.0), color="w", fill=pg.mkBrush(0, 0, 0, 150))
+        hug_text(self.label_text)
         for item in (self.id_text, self.label_text):
             item.setZValue(LABEL_Z)
             view_box.addItem(item, ignoreBounds=True)
